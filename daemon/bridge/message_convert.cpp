@@ -1,0 +1,101 @@
+#include "message_convert.hpp"
+
+#include <cmath>
+
+namespace loopd {
+
+point_cloud_t to_message(const PointCloud& cloud, std::int64_t utime, std::int64_t seq, const std::string& frame) {
+  point_cloud_t msg;
+  msg.utime = utime;
+  msg.seq = seq;
+  msg.frame = frame;
+  const std::size_t n = cloud.size();
+  msg.num_points = static_cast<int32_t>(n);
+  msg.x.resize(n);
+  msg.y.resize(n);
+  msg.z.resize(n);
+  msg.intensity.assign(n, 0.f);
+  for (std::size_t i = 0; i < n; ++i) {
+    msg.x[i] = cloud.points[i].x();
+    msg.y[i] = cloud.points[i].y();
+    msg.z[i] = cloud.points[i].z();
+    if (cloud.has_intensity()) msg.intensity[i] = cloud.intensity[i];
+  }
+  if (cloud.has_rings()) {
+    msg.num_ring_indices = static_cast<int32_t>(n);
+    msg.ring.assign(cloud.ring.begin(), cloud.ring.end());
+  } else {
+    msg.num_ring_indices = 0;
+  }
+  msg.num_rings = static_cast<int16_t>(cloud.num_rings);
+  return msg;
+}
+
+bool from_message(const point_cloud_t& msg, PointCloud* cloud, std::string* error) {
+  const auto n = static_cast<std::size_t>(msg.num_points);
+  if (msg.num_points < 0 || msg.x.size() != n || msg.y.size() != n || msg.z.size() != n || msg.intensity.size() != n) {
+    *error = "point_cloud_t arrays disagree with num_points";
+    return false;
+  }
+  if (msg.num_ring_indices != 0 && msg.num_ring_indices != msg.num_points) {
+    *error = "point_cloud_t num_ring_indices is neither 0 nor num_points";
+    return false;
+  }
+  *cloud = PointCloud();
+  cloud->points.resize(n);
+  for (std::size_t i = 0; i < n; ++i) cloud->points[i] = Eigen::Vector3f(msg.x[i], msg.y[i], msg.z[i]);
+  cloud->intensity = msg.intensity;
+  if (msg.num_ring_indices == msg.num_points && msg.num_rings > 0) {
+    cloud->ring.resize(n);
+    for (std::size_t i = 0; i < n; ++i) cloud->ring[i] = static_cast<std::uint16_t>(msg.ring[i] < 0 ? 0 : msg.ring[i]);
+    cloud->num_rings = msg.num_rings;
+  }
+  return true;
+}
+
+pose_t to_message(const StampedPose& pose, std::int64_t seq) {
+  pose_t msg{};
+  msg.utime = pose.utime;
+  msg.seq = seq;
+  const Eigen::Vector3d t = pose.T_world_sensor.translation();
+  const Eigen::Quaterniond q(pose.T_world_sensor.linear());
+  for (int i = 0; i < 3; ++i) msg.position[i] = t[i];
+  msg.orientation[0] = q.w();
+  msg.orientation[1] = q.x();
+  msg.orientation[2] = q.y();
+  msg.orientation[3] = q.z();
+  msg.residual = pose.residual;
+  msg.has_covariance = 0;
+  for (double& c : msg.covariance) c = 0.0;
+  return msg;
+}
+
+bool from_message(const pose_t& msg, StampedPose* pose, std::string* error) {
+  for (double v : msg.position)
+    if (!std::isfinite(v)) {
+      *error = "pose_t position is not finite";
+      return false;
+    }
+  double qn = 0.0;
+  for (double v : msg.orientation) {
+    if (!std::isfinite(v)) {
+      *error = "pose_t orientation is not finite";
+      return false;
+    }
+    qn += v * v;
+  }
+  if (qn < 1e-12) {
+    *error = "pose_t orientation is a zero quaternion";
+    return false;
+  }
+  if (!std::isfinite(msg.residual) || msg.residual < 0.0) {
+    *error = "pose_t residual is negative or not finite";
+    return false;
+  }
+  pose->utime = msg.utime;
+  pose->T_world_sensor = make_isometry(msg.position, msg.orientation);
+  pose->residual = msg.residual;
+  return true;
+}
+
+}  // namespace loopd

@@ -1,0 +1,30 @@
+#pragma once
+#include <string>
+
+#include <loopd/point_cloud_t.hpp>
+#include <loopd/pose_t.hpp>
+
+#include "loopd/core/point_cloud.hpp"
+#include "loopd/core/pose.hpp"
+
+namespace loopd {
+
+/// @brief Default channel names (all configurable in the daemon and tools).
+namespace channels {
+inline constexpr const char* kScan = "LIDAR_SCAN";
+inline constexpr const char* kPose = "ODOMETRY_POSE";
+inline constexpr const char* kGroundTruth = "GROUND_TRUTH_POSE";
+inline constexpr const char* kLoopEvent = "LOOP_EVENT";
+inline constexpr const char* kTrajectory = "CORRECTED_TRAJECTORY";
+inline constexpr const char* kStatus = "LOOPD_STATUS";
+}  // namespace channels
+
+point_cloud_t to_message(const PointCloud& cloud, std::int64_t utime, std::int64_t seq, const std::string& frame);
+/// @brief Validates array sizes; NaN points are kept (the pipeline filters and counts them).
+bool from_message(const point_cloud_t& msg, PointCloud* cloud, std::string* error);
+
+pose_t to_message(const StampedPose& pose, std::int64_t seq);
+/// @brief Rejects non-finite numbers and a zero quaternion.
+bool from_message(const pose_t& msg, StampedPose* pose, std::string* error);
+
+}  // namespace loopd
