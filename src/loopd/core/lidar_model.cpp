@@ -1,0 +1,133 @@
+#include "loopd/core/lidar_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace loopd {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// n angles linearly spaced from lo to hi inclusive, appended to out.
+void append_linear(double lo, double hi, int n, std::vector<double>* out) {
+  for (int i = 0; i < n; ++i) {
+    out->push_back(n == 1 ? lo : lo + (hi - lo) * static_cast<double>(i) / static_cast<double>(n - 1));
+  }
+}
+
+}  // namespace
+
+std::optional<std::string> LidarModel::validate() const {
+  if (num_rings <= 0) return std::string("num_rings must be > 0");
+  if (static_cast<int>(vertical_angles_deg.size()) != num_rings) return std::string("vertical_angles_deg must have num_rings entries");
+  for (std::size_t i = 1; i < vertical_angles_deg.size(); ++i) {
+    if (!(vertical_angles_deg[i] > vertical_angles_deg[i - 1])) return std::string("vertical_angles_deg must be strictly ascending");
+  }
+  if (azimuth_steps <= 0) return std::string("azimuth_steps must be > 0");
+  if (!(min_range >= 0.0) || !(max_range > min_range)) return std::string("need 0 <= min_range < max_range");
+  if (!(range_noise_sigma >= 0.0)) return std::string("range_noise_sigma must be >= 0");
+  if (!(dropout_rate >= 0.0 && dropout_rate < 1.0)) return std::string("dropout_rate must be in [0, 1)");
+  return std::nullopt;
+}
+
+LidarModel lidar_model_vlp16() {
+  LidarModel m;
+  m.name = "vlp16";
+  m.num_rings = 16;
+  // VLP-16 datasheet: vertical FOV 30 deg (+15 to -15), vertical resolution 2.0 deg.
+  append_linear(-15.0, 15.0, 16, &m.vertical_angles_deg);
+  // VLP-16 datasheet: horizontal resolution 0.1-0.4 deg; 0.2 deg at 10 Hz -> 1800 columns.
+  m.azimuth_steps = 1800;
+  // VLP-16 datasheet: range up to 100 m, accuracy +-3 cm (typical); returns closer than ~0.5 m are not reported.
+  m.min_range = 0.5;
+  m.max_range = 100.0;
+  m.range_noise_sigma = 0.02;
+  m.dropout_rate = 0.01;
+  return m;
+}
+
+LidarModel lidar_model_hdl32() {
+  LidarModel m;
+  m.name = "hdl32";
+  m.num_rings = 32;
+  // HDL-32E datasheet: vertical FOV +10.67 to -30.67 deg, 32 lasers at ~1.33 deg spacing.
+  append_linear(-30.67, 10.67, 32, &m.vertical_angles_deg);
+  // HDL-32E: ~0.16 deg horizontal resolution at 10 Hz (~2170 firings per laser per revolution).
+  m.azimuth_steps = 2170;
+  // HDL-32E datasheet: range 80-100 m, accuracy <2 cm (1 sigma at 25 m).
+  m.min_range = 1.0;
+  m.max_range = 100.0;
+  m.range_noise_sigma = 0.02;
+  m.dropout_rate = 0.01;
+  return m;
+}
+
+LidarModel lidar_model_hdl64() {
+  LidarModel m;
+  m.name = "hdl64";
+  m.num_rings = 64;
+  // HDL-64E S2 datasheet: vertical FOV +2.0 to -24.9 deg (26.9 deg), two blocks of 32 lasers:
+  // the lower block covers -24.9..-8.87 deg (~1/2 deg spacing), the upper block -8.33..+2.0 deg (~1/3 deg spacing).
+  // Linear spacing within each block approximates the per-unit calibration table.
+  append_linear(-24.9, -8.87, 32, &m.vertical_angles_deg);
+  append_linear(-8.33, 2.0, 32, &m.vertical_angles_deg);
+  // HDL-64E: angular resolution 0.1728 deg at 10 Hz (0.08 deg at 5 Hz) -> 2083 columns.
+  m.azimuth_steps = 2083;
+  // HDL-64E datasheet: range 120 m (cars/foliage), accuracy <2 cm (1 sigma).
+  m.min_range = 1.0;
+  m.max_range = 120.0;
+  m.range_noise_sigma = 0.02;
+  m.dropout_rate = 0.01;
+  return m;
+}
+
+LidarModel lidar_model_os1_64() {
+  LidarModel m;
+  m.name = "os1-64";
+  m.num_rings = 64;
+  // Ouster OS1-64 (gen 1) datasheet: vertical FOV 33.2 deg (+16.6 to -16.6), uniform beam spacing.
+  append_linear(-16.6, 16.6, 64, &m.vertical_angles_deg);
+  // OS1: horizontal resolution 512, 1024 or 2048 columns; 2048 at 10 Hz.
+  m.azimuth_steps = 2048;
+  // OS1 datasheet: range 120 m (80% reflectivity); range precision ~1.5-5 cm; min range ~0.8 m.
+  m.min_range = 0.8;
+  m.max_range = 120.0;
+  m.range_noise_sigma = 0.02;
+  m.dropout_rate = 0.01;
+  return m;
+}
+
+LidarModel lidar_model_os1_64_1024() {
+  LidarModel m = lidar_model_os1_64();
+  m.name = "os1-64-1024";
+  m.azimuth_steps = 1024;
+  return m;
+}
+
+std::optional<LidarModel> lidar_model_from_name(const std::string& name) {
+  if (name == "vlp16") return lidar_model_vlp16();
+  if (name == "hdl32") return lidar_model_hdl32();
+  if (name == "hdl64") return lidar_model_hdl64();
+  if (name == "os1-64") return lidar_model_os1_64();
+  if (name == "os1-64-1024") return lidar_model_os1_64_1024();
+  return std::nullopt;
+}
+
+std::vector<std::string> lidar_model_names() { return {"vlp16", "hdl32", "hdl64", "os1-64", "os1-64-1024"}; }
+
+int ring_from_elevation(const LidarModel& model, double elevation_rad) {
+  const auto& a = model.vertical_angles_deg;
+  if (a.empty() || !std::isfinite(elevation_rad)) return -1;
+  const double e = elevation_rad * 180.0 / kPi;
+  // Tolerance beyond the outermost rings: half the adjacent spacing (or 1 deg for a single ring).
+  const double lo_tol = a.size() > 1 ? 0.5 * (a[1] - a[0]) : 1.0;
+  const double hi_tol = a.size() > 1 ? 0.5 * (a[a.size() - 1] - a[a.size() - 2]) : 1.0;
+  if (e < a.front() - lo_tol || e > a.back() + hi_tol) return -1;
+  auto it = std::lower_bound(a.begin(), a.end(), e);
+  if (it == a.end()) return static_cast<int>(a.size()) - 1;
+  if (it == a.begin()) return 0;
+  const auto hi = it - a.begin();
+  return (e - a[static_cast<std::size_t>(hi - 1)] <= a[static_cast<std::size_t>(hi)] - e) ? static_cast<int>(hi - 1) : static_cast<int>(hi);
+}
+
+}  // namespace loopd

@@ -1,0 +1,50 @@
+#pragma once
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace loopd {
+
+/// @brief Geometry and noise of a spinning multi-beam lidar.
+///
+/// Rings are ordered by elevation: ring 0 is the lowest beam, vertical_angles_deg is ascending.
+/// A full revolution is sampled at `azimuth_steps` equally spaced columns.
+struct LidarModel {
+  std::string name;                         ///< short name ("vlp16", "hdl32", "hdl64", "os1-64")
+  int num_rings = 0;                        ///< number of laser beams
+  std::vector<double> vertical_angles_deg;  ///< [deg] elevation of each ring, ascending, ring 0 lowest
+  int azimuth_steps = 0;                    ///< columns per revolution (360 deg / horizontal resolution)
+  double min_range = 0.0;                   ///< [m] closer returns are not reported
+  double max_range = 0.0;                   ///< [m] farther surfaces give no return
+  double range_noise_sigma = 0.0;           ///< [m] 1-sigma Gaussian range noise
+  double dropout_rate = 0.0;                ///< probability that a ray with a valid hit returns nothing
+
+  /// @brief Horizontal resolution [deg].
+  double azimuth_step_deg() const { return azimuth_steps > 0 ? 360.0 / azimuth_steps : 0.0; }
+  /// @brief Rays per revolution (num_rings * azimuth_steps).
+  int rays_per_scan() const { return num_rings * azimuth_steps; }
+  /// @brief nullopt when the model is consistent, else what is wrong.
+  std::optional<std::string> validate() const;
+};
+
+/// @brief Velodyne VLP-16 (Puck): 16 rings at -15..+15 deg (2 deg step), 0.2 deg at 10 Hz, 100 m, +-3 cm.
+LidarModel lidar_model_vlp16();
+/// @brief Velodyne HDL-32E: 32 rings at -30.67..+10.67 deg (4/3 deg step), ~0.166 deg at 10 Hz, 100 m, +-2 cm.
+LidarModel lidar_model_hdl32();
+/// @brief Velodyne HDL-64E (S2/S3, the KITTI sensor): 64 rings -24.9..+2.0 deg in two blocks, 0.1728 deg at 10 Hz, 120 m.
+LidarModel lidar_model_hdl64();
+/// @brief Ouster OS1-64 (gen 1): 64 rings uniformly over -16.6..+16.6 deg, 2048 columns (10 Hz mode), 120 m.
+LidarModel lidar_model_os1_64();
+/// @brief Ouster OS1-64 in 1024-column mode (also 10 Hz).
+LidarModel lidar_model_os1_64_1024();
+
+/// @brief Model by name: "vlp16", "hdl32", "hdl64", "os1-64" (2048 columns), "os1-64-1024"; nullopt if unknown.
+std::optional<LidarModel> lidar_model_from_name(const std::string& name);
+/// @brief Names accepted by lidar_model_from_name.
+std::vector<std::string> lidar_model_names();
+
+/// @brief Ring whose elevation is nearest to `elevation_rad`; -1 if the elevation lies outside the model's
+/// fan by more than half the neighbouring ring spacing (or the model has no rings).
+int ring_from_elevation(const LidarModel& model, double elevation_rad);
+
+}  // namespace loopd
