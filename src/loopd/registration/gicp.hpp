@@ -1,0 +1,65 @@
+#pragma once
+/// @file Generalized ICP (plane-to-plane) for loop refinement (Ren 2019, Sec. 3.2; Segal 2009).
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace loopd {
+
+/// @brief Settings of align_gicp. Defaults are tuned for loop closure on clouds voxel-downsampled to ~0.6 m
+/// (see verify/prepare_scan.hpp for the voxel-size rationale).
+struct GicpConfig {
+  int k_neighbors = 20;    ///< neighbours for each point's covariance (Ren 2019, Eq. 2)
+  double epsilon = 0.001;  ///< smallest eigenvalue of the normalised covariance, diag(eps, 1, 1) (Ren 2019, Eq. 3)
+  /// [m] correspondence distance schedule: one Gauss-Newton stage per entry, coarse to fine. The last entry is also the
+  /// distance used for the reported residual and fitness.
+  std::vector<double> max_correspondence_distances{2.0, 1.0, 0.6};
+  int max_iterations = 20;                ///< Gauss-Newton iterations per stage
+  double convergence_translation = 1e-3;  ///< [m] a stage stops when the update is below this ...
+  double convergence_rotation = 1e-4;     ///< [rad] ... and this
+  double damping = 1e-6;                  ///< Levenberg-style damping, relative to the largest diagonal entry of H
+  /// Below this inlier fraction the result is reported as not converged (a local minimum far from the truth, e.g.
+  /// started 90 deg off, still satisfies the step criterion; fitness is what tells it apart).
+  double min_fitness = 0.3;
+  int num_threads = 2;  ///< OpenMP threads; the result does not depend on it (fixed-block reduction)
+
+  /// @brief Empty when valid, otherwise what is wrong.
+  std::optional<std::string> validate() const;
+};
+
+/// @brief Outcome of align_gicp.
+struct GicpResult {
+  bool converged = false;  ///< final stage met the step criterion within max_iterations and fitness >= min_fitness
+  Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();  ///< maps source points into the target frame
+  double residual = -1;  ///< [m] mean distance of corresponding points within the last schedule distance (-1: none)
+  double fitness = 0;    ///< inlier fraction: share of source points with a correspondence within that distance
+  int iterations = 0;    ///< Gauss-Newton iterations over all stages
+  /// Gauss-Newton Hessian sum J^T M J at the final transform (Ren 2019, Eq. 6), usable as loop-edge information.
+  /// Order (rx, ry, rz, tx, ty, tz), right perturbation T * Exp(delta), i.e. in the source frame.
+  /// Units: the Mahalanobis weights use the normalised covariances diag(eps, 1, 1) [m^2], so H is information up to
+  /// a scale (divide by a point noise variance to make it metric).
+  Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+  double cost = 0;           ///< final Mahalanobis cost sum (Ren 2019, Eq. 6)
+  int num_inliers = 0;       ///< correspondences within the last schedule distance
+  double degeneracy = -1;    ///< gicp_degeneracy(H): >= 1, large = ill-conditioned translation (corridor); -1 when unknown
+  Eigen::Vector3d weakest_direction = Eigen::Vector3d::Zero();  ///< translation direction (source frame) with least information
+  double ms = 0;             ///< [ms] wall time including covariance estimation
+  std::string reason;        ///< why converged is false (empty otherwise)
+};
+
+/// @brief Generalized ICP: per-point covariances from k neighbours with eigenvalues replaced by (eps, 1, 1)
+/// (Ren 2019, Eq. 3), plane-to-plane Mahalanobis cost (Eq. 6), Gauss-Newton on SE(3), one stage per entry of the
+/// correspondence distance schedule. Non-finite input points are ignored.
+/// @note Deterministic: per-point terms are summed in fixed blocks, then the blocks in order, so the result is the same
+/// for any num_threads.
+GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source, const std::vector<Eigen::Vector3f>& target,
+                      const Eigen::Isometry3d& init_T_target_source, const GicpConfig& config);
+
+/// @brief Degeneracy of a GICP Hessian: condition number lambda_max / lambda_min of the translational information after
+/// marginalising rotation (Schur complement of the rotation block). ~1-30 for well-constrained street scenes; large
+/// (hundreds and more) when translation along one axis is unobservable, e.g. a corridor or tunnel. Returns +inf when
+/// the smallest eigenvalue is not positive. `weakest` (optional) receives its eigenvector.
+double gicp_degeneracy(const Eigen::Matrix<double, 6, 6>& H, Eigen::Vector3d* weakest = nullptr);
+
+}  // namespace loopd
