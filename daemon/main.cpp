@@ -1,10 +1,87 @@
-// loopd: placeholder entry point until the daemon app lands (issue #2/#8).
+// loopd: the lidar loop-closure daemon. Thin glue: options -> config -> run_live / run_replay.
 #include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
+#include <cstdio>
 #include <iostream>
 
+#include "daemon_config.hpp"
+#include "lcm_node.hpp"
+
+namespace {
+std::atomic<bool> g_stop{false};  // set only by the signal handler
+extern "C" void on_signal(int) { g_stop.store(true); }
+
+void print_summary(const loopd::RunSummary& s, bool replay) {
+  const auto& e = s.engine;
+  std::fprintf(stderr,
+               "loopd: %s finished in %.1f s%s: scans %lld, poses %lld, keyframes %lld, loops accepted %lld, rejected %lld; "
+               "malformed %lld, invalid scans %lld, scans without pose %lld, shed %lld, dropped %lld\n",
+               replay ? "replay" : "live run", s.seconds,
+               replay && s.seconds > 0 ? (" (" + std::to_string(static_cast<int>(s.data_seconds / s.seconds)) + "x real time)").c_str() : "",
+               static_cast<long long>(s.scans_received), static_cast<long long>(s.poses_received), static_cast<long long>(e.keyframes),
+               static_cast<long long>(e.loops_accepted), static_cast<long long>(e.loops_rejected), static_cast<long long>(s.malformed),
+               static_cast<long long>(e.invalid_scans), static_cast<long long>(e.dropped_no_pose), static_cast<long long>(e.shed),
+               static_cast<long long>(s.dropped_input));
+}
+}  // namespace
+
 int main(int argc, char** argv) {
-  CLI::App app{"loopd: lidar loop-closure daemon"};
+  CLI::App app{"loopd: lidar loop-closure daemon. Listens for scans and odometry poses on LCM, detects and verifies loops\n"
+               "(M2DP + plane-based 4PCS + GICP + Hungarian check), publishes loop events and corrected trajectories."};
+  std::string lcm_url, config_path, replay_log, output_log, sensor;
+  int threads = -1;
+  bool print_config = false, quiet = false;
   app.set_version_flag("--version", std::string("loopd ") + LOOPD_VERSION);
+  app.add_option("--lcm-url", lcm_url, "LCM URL to listen and publish on (default from config: udpm://239.255.76.67:7667?ttl=0)");
+  app.add_option("--config", config_path, "YAML config file (see loopd.example.yaml); unknown or wrong fields are refused")->check(CLI::ExistingFile);
+  app.add_option("--sensor", sensor, "lidar model preset: vlp16, hdl32, hdl64, os1-64 (overrides the config)");
+  app.add_option("--threads", threads, "worker threads (0 = hardware threads; overrides the config)");
+  app.add_option("--replay", replay_log, "process an lcm-logger file as fast as possible instead of listening live");
+  app.add_option("--output", output_log, "with --replay: write every published message to this lcm-logger file");
+  app.add_flag("--print-config", print_config, "print the effective configuration as YAML and exit");
+  app.add_flag("--quiet", quiet, "no log line per accepted loop");
   CLI11_PARSE(app, argc, argv);
-  return 0;
+
+  loopd::DaemonConfig config;
+  std::string error;
+  if (!config_path.empty() && !loopd::load_config(config_path, &config, &error)) {
+    std::cerr << "loopd: bad config: " << error << std::endl;
+    return 2;
+  }
+  if (!sensor.empty() && !loopd::apply_sensor_preset(sensor, &config, &error)) {
+    std::cerr << "loopd: --sensor: " << error << std::endl;
+    return 2;
+  }
+  if (!lcm_url.empty()) config.node.lcm_url = lcm_url;
+  if (threads >= 0) config.engine.num_threads = threads;
+  config.node.quiet = quiet;
+  if (auto e = config.engine.validate()) {
+    std::cerr << "loopd: bad config: " << *e << std::endl;
+    return 2;
+  }
+  if (print_config) {
+    std::cout << loopd::dump_config(config);
+    return 0;
+  }
+
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+
+  loopd::RunSummary summary;
+  int rc = 0;
+  if (!replay_log.empty()) {
+    rc = loopd::run_replay(config.node, config.engine, replay_log, output_log, lcm_url, g_stop, &summary);
+  } else {
+    if (!output_log.empty()) {
+      std::cerr << "loopd: --output needs --replay (record a live run with lcm-logger)" << std::endl;
+      return 2;
+    }
+    rc = loopd::run_live(config.node, config.engine, g_stop, &summary);
+  }
+  if (rc == 0) print_summary(summary, !replay_log.empty());
+  return rc;
 }

@@ -1,0 +1,236 @@
+#include "daemon_config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <functional>
+#include <set>
+#include <sstream>
+
+namespace loopd {
+namespace {
+
+/// Walks every config field once, either loading it from YAML or dumping it (one list of fields, two uses).
+class Binder {
+ public:
+  enum class Mode { kLoad, kDump };
+  Binder(Mode mode, YAML::Node root) : mode_(mode), root_(std::move(root)) {}
+
+  template <typename T>
+  void field(const std::string& path, T& value) {
+    known_.insert(path);
+    if (mode_ == Mode::kDump) {
+      dump_[path] = to_text(value);
+      return;
+    }
+    if (!error_.empty()) return;
+    YAML::Node node = lookup(path);
+    if (!node) return;
+    try {
+      value = node.as<T>();
+    } catch (const YAML::Exception&) {
+      error_ = path + ": expected " + type_name(value) + ", got '" + (node.IsScalar() ? node.Scalar() : std::string("a map or list")) + "'";
+    }
+  }
+  /// An enum stored as one of several names.
+  template <typename E>
+  void choice(const std::string& path, E& value, const std::vector<std::pair<std::string, E>>& names) {
+    std::string text;
+    for (const auto& [n, v] : names)
+      if (v == value) text = n;
+    known_.insert(path);
+    if (mode_ == Mode::kDump) {
+      dump_[path] = text;
+      return;
+    }
+    if (!error_.empty()) return;
+    YAML::Node node = lookup(path);
+    if (!node) return;
+    const std::string got = node.IsScalar() ? node.Scalar() : "";
+    for (const auto& [n, v] : names)
+      if (n == got) {
+        value = v;
+        return;
+      }
+    std::string options;
+    for (const auto& [n, v] : names) options += (options.empty() ? "" : ", ") + n;
+    error_ = path + ": expected one of " + options + ", got '" + got + "'";
+  }
+  /// Reports keys present in the YAML that no field consumed.
+  void check_unknown() {
+    if (!error_.empty() || mode_ != Mode::kLoad) return;
+    walk(root_, "");
+  }
+  const std::string& error() const { return error_; }
+  const std::map<std::string, std::string>& dumped() const { return dump_; }
+
+ private:
+  YAML::Node lookup(const std::string& path) const {
+    YAML::Node node = YAML::Clone(root_);
+    std::stringstream ss(path);
+    std::string part;
+    while (std::getline(ss, part, '.')) {
+      if (!node.IsMap()) return YAML::Node(YAML::NodeType::Undefined);
+      YAML::Node child = node[part];
+      if (!child) return YAML::Node(YAML::NodeType::Undefined);
+      node = child;
+    }
+    return node;
+  }
+  void walk(const YAML::Node& node, const std::string& prefix) {
+    if (!error_.empty()) return;
+    if (!node.IsMap()) {
+      if (!prefix.empty() && !known_.count(prefix)) error_ = prefix + ": unknown configuration key";
+      return;
+    }
+    for (const auto& kv : node) {
+      const std::string key = prefix.empty() ? kv.first.as<std::string>() : prefix + "." + kv.first.as<std::string>();
+      walk(kv.second, key);
+    }
+  }
+  static std::string type_name(const double&) { return "a number"; }
+  static std::string type_name(const int&) { return "an integer"; }
+  static std::string type_name(const std::int64_t&) { return "an integer"; }
+  static std::string type_name(const bool&) { return "true or false"; }
+  static std::string type_name(const std::string&) { return "a string"; }
+  template <typename T>
+  static std::string to_text(const T& v) {
+    std::ostringstream os;
+    if constexpr (std::is_same_v<T, bool>)
+      os << (v ? "true" : "false");
+    else if constexpr (std::is_same_v<T, std::string>)
+      os << '"' << v << '"';
+    else
+      os << v;
+    return os.str();
+  }
+
+  Mode mode_;
+  YAML::Node root_;
+  std::set<std::string> known_;
+  std::map<std::string, std::string> dump_;
+  std::string error_;
+};
+
+void bind(Binder& b, DaemonConfig& c) {
+  NodeConfig& n = c.node;
+  b.field("lcm_url", n.lcm_url);
+  b.field("channels.scan", n.scan_channel);
+  b.field("channels.pose", n.pose_channel);
+  b.field("channels.loop_event", n.loop_event_channel);
+  b.field("channels.trajectory", n.trajectory_channel);
+  b.field("channels.status", n.status_channel);
+  b.field("input_queue_capacity", n.input_queue_capacity);
+  b.field("log_every_n", n.log_every_n);
+  b.field("status_period", n.status_period);
+
+  EngineConfig& e = c.engine;
+  b.field("threads", e.num_threads);
+  b.field("queue_capacity", e.queue_capacity);
+  b.field("max_points_per_scan", e.max_points_per_scan);
+  b.field("association.tolerance", e.association.tolerance);
+  b.field("association.hold_time", e.association.hold_time);
+  b.field("association.max_pending_scans", e.association.max_pending_scans);
+  b.field("association.max_poses", e.association.max_poses);
+
+  LoopDetectorConfig& d = e.detector;
+  b.field("sensor", d.sensor);
+  b.field("keyframe.min_distance", d.keyframe.min_distance);
+  b.field("keyframe.min_rotation_deg", d.keyframe.min_rotation_deg);
+  b.field("keyframe.max_interval", d.keyframe.max_interval);
+  b.field("gate.travel_fraction", d.gate.travel_fraction);
+  b.field("gate.min_radius", d.gate.min_radius);
+  b.field("gate.max_radius", d.gate.max_radius);
+  b.field("gate.min_index_gap", d.gate.min_index_gap);
+  b.field("gate.min_travel_gap", d.gate.min_travel_gap);
+  b.field("descriptor.max_distance", d.max_descriptor_distance);
+  b.field("descriptor.max_candidates", d.max_candidates_per_keyframe);
+  bind_stage_configs(b, d);
+}
+
+}  // namespace
+
+bool apply_sensor_preset(const std::string& sensor, DaemonConfig* config, std::string* error) {
+  const auto model = lidar_model_from_name(sensor);
+  if (!model) {
+    *error = "sensor: unknown lidar model '" + sensor + "' (vlp16, hdl32, hdl64, os1-64)";
+    return false;
+  }
+  config->engine.detector.sensor = sensor;
+  return true;
+}
+
+bool load_config_text(const std::string& yaml, DaemonConfig* config, std::string* error) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml);
+  } catch (const YAML::Exception& ex) {
+    *error = std::string("YAML syntax: ") + ex.what();
+    return false;
+  }
+  if (root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
+  if (!root.IsMap()) {
+    *error = "the config must be a YAML map of keys";
+    return false;
+  }
+  // The sensor preset first, so explicit keys override what it implies.
+  if (root["sensor"] && root["sensor"].IsScalar() && !apply_sensor_preset(root["sensor"].Scalar(), config, error)) return false;
+  Binder b(Binder::Mode::kLoad, root);
+  bind(b, *config);
+  b.check_unknown();
+  if (!b.error().empty()) {
+    *error = b.error();
+    return false;
+  }
+  if (auto e = config->node.validate()) {
+    *error = *e;
+    return false;
+  }
+  if (auto e = config->engine.validate()) {
+    *error = *e;
+    return false;
+  }
+  return true;
+}
+
+bool load_config(const std::string& path, DaemonConfig* config, std::string* error) {
+  std::ifstream in(path);
+  if (!in) {
+    *error = "cannot read config file " + path;
+    return false;
+  }
+  std::stringstream ss;
+  ss << in.rdbuf();
+  if (!load_config_text(ss.str(), config, error)) {
+    *error = path + ": " + *error;
+    return false;
+  }
+  return true;
+}
+
+std::string dump_config(const DaemonConfig& config) {
+  DaemonConfig copy = config;
+  Binder b(Binder::Mode::kDump, YAML::Node());
+  bind(b, copy);
+  // Nest the dotted paths back into YAML.
+  YAML::Node root(YAML::NodeType::Map);
+  for (const auto& [path, text] : b.dumped()) {
+    std::vector<std::string> parts;
+    std::stringstream ss(path);
+    std::string part;
+    while (std::getline(ss, part, '.')) parts.push_back(part);
+    std::function<void(YAML::Node, std::size_t)> set = [&](YAML::Node node, std::size_t i) {
+      if (i + 1 == parts.size()) {
+        node[parts[i]] = YAML::Load(text);
+        return;
+      }
+      set(node[parts[i]], i + 1);
+    };
+    set(root, 0);
+  }
+  YAML::Emitter out;
+  out << root;
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace loopd

@@ -1,0 +1,28 @@
+#pragma once
+#include <optional>
+#include <string>
+
+#include "lcm_node.hpp"
+#include "loopd_engine.hpp"
+
+namespace loopd {
+
+/// @brief Everything loopd reads from its YAML config (see daemon/loopd.example.yaml).
+struct DaemonConfig {
+  NodeConfig node;
+  EngineConfig engine;
+};
+
+/// @brief Applies a sensor preset (vlp16, hdl32, hdl64, os1-64) to the detector settings it implies.
+bool apply_sensor_preset(const std::string& sensor, DaemonConfig* config, std::string* error);
+
+/// @brief Reads a YAML config over the defaults. Unknown keys and wrong values are errors that name the field
+///        (e.g. "gate.min_radius: expected a number, got 'abc'"). Validates the result.
+bool load_config(const std::string& path, DaemonConfig* config, std::string* error);
+/// @brief Same, from YAML text.
+bool load_config_text(const std::string& yaml, DaemonConfig* config, std::string* error);
+
+/// @brief The whole effective configuration as YAML (for --print-config).
+std::string dump_config(const DaemonConfig& config);
+
+}  // namespace loopd

@@ -1,0 +1,331 @@
+#include "lcm_node.hpp"
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <fstream>
+#include <iostream>
+#include <lcm/lcm-cpp.hpp>
+#include <mutex>
+#include <thread>
+#include <variant>
+
+#include "lcm_log.hpp"
+#include "message_convert.hpp"
+#include "output_messages.hpp"
+
+namespace loopd {
+namespace {
+
+double wall_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+std::int64_t wall_utime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+/// Logs an anomaly on its 1st, (N+1)th, ... occurrence.
+void log_anomaly(const std::string& what, std::int64_t count, int every) {
+  if (every <= 0 || (count - 1) % every == 0) std::cerr << "loopd: " << what << " (" << count << " so far)" << std::endl;
+}
+
+/// Publishes results on LCM and/or into a log file.
+class OutputSink : public EngineSink {
+ public:
+  OutputSink(const NodeConfig& node, lcm::LCM* lcm, LogWriter* log, bool data_time) : node_(node), lcm_(lcm), log_(log), data_time_(data_time) {}
+
+  void on_decision(const LoopDecision& d) override {
+    const std::int64_t t = data_time_ ? d.query_utime : wall_utime();
+    publish(node_.loop_event_channel, t, to_message(d, t));
+    if (!node_.quiet && d.status == LoopStatus::kAccepted)
+      std::fprintf(stderr, "loopd: loop accepted: keyframe %lld -> %lld (descriptor %.3f, lcp %.2f, icp %.3f m, %.0f ms)\n",
+                   static_cast<long long>(d.query_id), static_cast<long long>(d.match_id), d.descriptor_distance, d.lcp_fraction,
+                   d.icp_residual, d.ms_total);
+    last_data_utime_ = d.query_utime;
+  }
+  void on_correction(const CorrectionOutput& c) override {
+    const std::int64_t t = data_time_ ? last_data_utime_ : wall_utime();
+    publish(node_.trajectory_channel, t, to_message(c, t));
+  }
+  template <typename Msg>
+  void publish(const std::string& channel, std::int64_t t, const Msg& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (lcm_) lcm_->publish(channel, &msg);
+    if (log_) {
+      log_->write_message(channel, t, msg);
+      ++written_;
+    }
+  }
+  std::int64_t written() const { return written_; }
+
+ private:
+  const NodeConfig& node_;
+  lcm::LCM* lcm_;
+  LogWriter* log_;
+  bool data_time_;
+  std::mutex mutex_;
+  std::int64_t written_ = 0;
+  std::int64_t last_data_utime_ = 0;
+};
+
+/// Decoded input waiting for the ingest thread.
+struct Input {
+  std::variant<point_cloud_t, pose_t> msg;
+};
+
+/// Subscribes to the scan and pose channels; decodes and counts; hands messages to `deliver`.
+class InputHandler {
+ public:
+  InputHandler(const NodeConfig& node) : node_(node) {
+    scan_.channel = node.scan_channel;
+    pose_.channel = node.pose_channel;
+  }
+  std::function<bool(Input&&)> deliver;  // returns false when the input had to be dropped
+
+  void on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    const bool is_scan = channel == node_.scan_channel;
+    ChannelCounters& c = is_scan ? scan_ : pose_;
+    ++c.received;
+    Input in;
+    int rc = -1;
+    if (is_scan) {
+      point_cloud_t m;
+      rc = m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
+      if (rc >= 0) in.msg = std::move(m);
+    } else {
+      pose_t m;
+      rc = m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
+      if (rc >= 0) in.msg = m;
+    }
+    if (rc < 0) {
+      ++c.malformed;
+      log_anomaly("could not decode a message on " + channel + " (" + std::to_string(rbuf->data_size) + " bytes)", c.malformed, node_.log_every_n);
+      return;
+    }
+    if (deliver && !deliver(std::move(in))) {
+      ++c.dropped;
+      log_anomaly("input queue full, dropped a message on " + channel, c.dropped, node_.log_every_n);
+    }
+  }
+  ChannelCounters scan_, pose_;
+  std::mutex counters_mutex_;
+
+ private:
+  const NodeConfig& node_;
+};
+
+/// Converts one decoded input and feeds the engine; counts conversion failures as malformed.
+void ingest(LoopdEngine& engine, InputHandler& h, Input& in, const NodeConfig& node, double now, std::int64_t* last_data_utime) {
+  std::string error;
+  if (auto* scan = std::get_if<point_cloud_t>(&in.msg)) {
+    PointCloud cloud;
+    std::lock_guard<std::mutex> lock(h.counters_mutex_);
+    if (!from_message(*scan, &cloud, &error)) {
+      ++h.scan_.malformed;
+      log_anomaly("rejected a scan on " + node.scan_channel + ": " + error, h.scan_.malformed, node.log_every_n);
+      return;
+    }
+    *last_data_utime = std::max(*last_data_utime, scan->utime);
+    if (engine.push_scan(scan->utime, std::move(cloud), now))
+      ++h.scan_.accepted;
+    else
+      log_anomaly("rejected a scan at utime " + std::to_string(scan->utime) + ": empty, all non-finite, too large, or duplicate/out-of-order utime",
+                  engine.stats().invalid_scans, node.log_every_n);
+  } else if (auto* pose = std::get_if<pose_t>(&in.msg)) {
+    StampedPose p;
+    std::lock_guard<std::mutex> lock(h.counters_mutex_);
+    if (!from_message(*pose, &p, &error)) {
+      ++h.pose_.malformed;
+      log_anomaly("rejected a pose on " + node.pose_channel + ": " + error, h.pose_.malformed, node.log_every_n);
+      return;
+    }
+    *last_data_utime = std::max(*last_data_utime, pose->utime);
+    if (engine.push_pose(p, now))
+      ++h.pose_.accepted;
+    else
+      log_anomaly("rejected a pose with a duplicate or out-of-order utime " + std::to_string(pose->utime), engine.stats().invalid_poses, node.log_every_n);
+  }
+}
+
+std::vector<ChannelCounters> counters(InputHandler& h, const EngineStats& s) {
+  std::lock_guard<std::mutex> lock(h.counters_mutex_);
+  ChannelCounters scan = h.scan_;
+  scan.dropped += s.dropped_no_pose + s.shed;
+  return {scan, h.pose_};
+}
+
+void fill_summary(RunSummary* summary, LoopdEngine& engine, InputHandler& h) {
+  if (!summary) return;
+  summary->engine = engine.stats();
+  std::lock_guard<std::mutex> lock(h.counters_mutex_);
+  summary->scans_received = h.scan_.received;
+  summary->poses_received = h.pose_.received;
+  summary->malformed = h.scan_.malformed + h.pose_.malformed;
+  summary->dropped_input = h.scan_.dropped + h.pose_.dropped;
+}
+
+}  // namespace
+
+std::optional<std::string> NodeConfig::validate() const {
+  if (lcm_url.empty()) return "lcm_url must not be empty";
+  for (const auto* c : {&scan_channel, &pose_channel, &loop_event_channel, &trajectory_channel, &status_channel})
+    if (c->empty()) return "channels: channel names must not be empty";
+  if (input_queue_capacity < 1) return "input_queue_capacity must be >= 1";
+  if (log_every_n < 1) return "log_every_n must be >= 1";
+  if (!(status_period > 0.0)) return "status_period must be > 0 [s]";
+  return std::nullopt;
+}
+
+bool check_receive_buffer(const std::string& lcm_url, std::int64_t points) {
+  if (lcm_url.rfind("udpm://", 0) != 0) return false;
+  const std::int64_t needed = points * 18 + 4096;  // x, y, z, intensity (float32) + ring (int16) per point
+  std::int64_t buffer = 0;
+  const auto pos = lcm_url.find("recv_buf_size=");
+  if (pos != std::string::npos) {
+    buffer = std::atoll(lcm_url.c_str() + pos + 14);
+  } else {
+    std::ifstream in("/proc/sys/net/core/rmem_default");
+    in >> buffer;
+  }
+  std::int64_t rmem_max = 0;
+  std::ifstream("/proc/sys/net/core/rmem_max") >> rmem_max;
+  const std::int64_t effective = (pos != std::string::npos && rmem_max > 0) ? std::min(buffer, rmem_max) : buffer;
+  if (effective >= 2 * needed) return false;
+  std::fprintf(stderr,
+               "loopd: warning: UDP receive buffer is %lld KiB but one %lld-point scan is about %lld KiB; LCM drops a whole message when one "
+               "fragment is lost. Fix: add recv_buf_size=%lld to the LCM URL and allow it with 'sysctl -w net.core.rmem_max=%lld'.\n",
+               static_cast<long long>(effective / 1024), static_cast<long long>(points), static_cast<long long>(needed / 1024),
+               static_cast<long long>(8 * needed), static_cast<long long>(8 * needed));
+  return true;
+}
+
+int run_live(const NodeConfig& node, const EngineConfig& engine_config, const std::atomic<bool>& stop, RunSummary* summary) {
+  lcm::LCM lcm(node.lcm_url);
+  if (!lcm.good()) {
+    std::cerr << "loopd: cannot initialise LCM with URL '" << node.lcm_url << "'" << std::endl;
+    return 3;
+  }
+  check_receive_buffer(node.lcm_url, 130000);
+  const double start = wall_s();
+  OutputSink sink(node, &lcm, nullptr, false);
+  LoopdEngine engine(engine_config, &sink);
+  InputHandler handler(node);
+
+  std::mutex qm;
+  std::condition_variable qcv;
+  std::deque<Input> queue;
+  bool done = false;
+  handler.deliver = [&](Input&& in) {
+    std::lock_guard<std::mutex> lock(qm);
+    if (static_cast<int>(queue.size()) >= node.input_queue_capacity) return false;
+    queue.push_back(std::move(in));
+    qcv.notify_one();
+    return true;
+  };
+  lcm.subscribe(node.scan_channel, &InputHandler::on_raw, &handler);
+  lcm.subscribe(node.pose_channel, &InputHandler::on_raw, &handler);
+
+  std::thread ingest_thread([&] {
+    std::int64_t last_data_utime = 0;
+    double next_status = wall_s() + node.status_period;
+    for (;;) {
+      std::deque<Input> batch;
+      {
+        std::unique_lock<std::mutex> lock(qm);
+        qcv.wait_for(lock, std::chrono::milliseconds(100), [&] { return done || !queue.empty(); });
+        if (done) break;
+        batch.swap(queue);
+      }
+      for (auto& in : batch) ingest(engine, handler, in, node, wall_s(), &last_data_utime);
+      const double now = wall_s();
+      engine.tick(now);
+      if (now >= next_status) {
+        next_status = now + node.status_period;
+        const EngineStats s = engine.stats();
+        sink.publish(node.status_channel, wall_utime(), make_status(wall_utime(), now - start, s, counters(handler, s), resident_memory_bytes()));
+      }
+    }
+  });
+
+  std::cerr << "loopd: listening on " << node.scan_channel << " and " << node.pose_channel << " (" << node.lcm_url << "), descriptor device: "
+            << engine.stats().device << std::endl;
+  while (!stop.load()) {
+    if (lcm.handleTimeout(100) < 0) {
+      std::cerr << "loopd: LCM error while handling messages" << std::endl;
+      break;
+    }
+  }
+  {
+    std::lock_guard<std::mutex> lock(qm);
+    done = true;
+  }
+  qcv.notify_all();
+  ingest_thread.join();
+  fill_summary(summary, engine, handler);
+  if (summary) summary->seconds = wall_s() - start;
+  return 0;
+}
+
+int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const std::string& input_log, const std::string& output_log,
+               const std::string& publish_url, const std::atomic<bool>& stop, RunSummary* summary) {
+  if (!std::ifstream(input_log)) {
+    std::cerr << "loopd: cannot open replay log " << input_log << std::endl;
+    return 2;
+  }
+  lcm::LCM reader("file://" + input_log + "?speed=0");
+  if (!reader.good()) {
+    std::cerr << "loopd: LCM cannot read " << input_log << std::endl;
+    return 2;
+  }
+  LogWriter writer;
+  std::string error;
+  if (!output_log.empty() && !writer.open(output_log, &error)) {
+    std::cerr << "loopd: " << error << std::endl;
+    return 2;
+  }
+  std::unique_ptr<lcm::LCM> publisher;
+  if (!publish_url.empty()) {
+    publisher = std::make_unique<lcm::LCM>(publish_url);
+    if (!publisher->good()) {
+      std::cerr << "loopd: cannot initialise LCM with URL '" << publish_url << "'" << std::endl;
+      return 3;
+    }
+  }
+  const double start = wall_s();
+  EngineConfig config = engine_config;
+  config.block_when_full = true;  // replay never sheds: it waits for the workers
+  OutputSink sink(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
+  LoopdEngine engine(config, &sink);
+  InputHandler handler(node);
+  std::int64_t last_data_utime = 0, first_data_utime = 0, next_status_utime = 0;
+  handler.deliver = [&](Input&& in) {
+    ingest(engine, handler, in, node, wall_s(), &last_data_utime);
+    if (first_data_utime == 0) first_data_utime = last_data_utime;
+    if (last_data_utime >= next_status_utime) {
+      // Status at the configured period of data time, so the output log is the same on every replay.
+      next_status_utime = last_data_utime + static_cast<std::int64_t>(node.status_period * 1e6);
+      EngineStats s = engine.stats();
+      sink.publish(node.status_channel, last_data_utime,
+                   make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s), resident_memory_bytes()));
+    }
+    return true;
+  };
+  reader.subscribe(node.scan_channel, &InputHandler::on_raw, &handler);
+  reader.subscribe(node.pose_channel, &InputHandler::on_raw, &handler);
+  while (!stop.load()) {
+    if (reader.handle() != 0) break;  // end of the log
+  }
+  engine.finish();
+  const EngineStats s = engine.stats();
+  sink.publish(node.status_channel, last_data_utime,
+               make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s), resident_memory_bytes()));
+  fill_summary(summary, engine, handler);
+  if (summary) {
+    summary->seconds = wall_s() - start;
+    summary->data_seconds = static_cast<double>(last_data_utime - first_data_utime) * 1e-6;
+    summary->events_written = sink.written();
+  }
+  writer.close();
+  return 0;
+}
+
+}  // namespace loopd

@@ -1,0 +1,48 @@
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "loopd_engine.hpp"
+
+namespace loopd {
+
+/// @brief LCM-facing settings of the daemon.
+struct NodeConfig {
+  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string scan_channel = "LIDAR_SCAN";
+  std::string pose_channel = "ODOMETRY_POSE";
+  std::string loop_event_channel = "LOOP_EVENT";
+  std::string trajectory_channel = "CORRECTED_TRAJECTORY";
+  std::string status_channel = "LOOPD_STATUS";
+  int input_queue_capacity = 256;  ///< decoded messages waiting for the ingest thread (live); beyond it they are dropped
+  int log_every_n = 100;           ///< a repeated anomaly is logged on its 1st, (N+1)th, ... occurrence
+  double status_period = 1.0;      ///< [s] status_t period
+  bool quiet = false;              ///< no per-loop log lines
+  std::optional<std::string> validate() const;
+};
+
+/// @brief Result of a run, for the exit summary.
+struct RunSummary {
+  EngineStats engine;
+  std::int64_t scans_received = 0, poses_received = 0, malformed = 0, dropped_input = 0;
+  std::int64_t events_written = 0;
+  double seconds = 0.0;
+  double data_seconds = 0.0;
+};
+
+/// @brief Live: subscribes on the bus, the LCM thread only decodes and enqueues, an ingest thread feeds the
+///        engine; runs until `stop` becomes true. Returns non-zero when LCM cannot be initialised.
+int run_live(const NodeConfig& node, const EngineConfig& engine, const std::atomic<bool>& stop, RunSummary* summary);
+
+/// @brief Replay: reads an lcm-logger file through LCM's file provider as fast as possible, waits for the workers
+///        instead of dropping, and writes every published message to `output_log` (and to `publish_url` when set).
+int run_replay(const NodeConfig& node, const EngineConfig& engine, const std::string& input_log, const std::string& output_log,
+               const std::string& publish_url, const std::atomic<bool>& stop, RunSummary* summary);
+
+/// @brief Warns (one line on stderr) when the UDP receive buffer cannot hold a scan of `points` points.
+///        Returns true when a warning was printed.
+bool check_receive_buffer(const std::string& lcm_url, std::int64_t points);
+
+}  // namespace loopd

@@ -1,0 +1,189 @@
+#include "loopd_engine.hpp"
+
+#include <chrono>
+#include <cmath>
+
+namespace loopd {
+
+std::optional<std::string> EngineConfig::validate() const {
+  if (auto e = association.validate()) return e;
+  if (auto e = detector.validate()) return e;
+  if (num_threads < 0) return "num_threads must be >= 0 (0 = hardware threads)";
+  if (queue_capacity < 1) return "queue_capacity must be >= 1";
+  if (max_points_per_scan < 1) return "max_points_per_scan must be >= 1";
+  return std::nullopt;
+}
+
+LoopdEngine::LoopdEngine(const EngineConfig& config, EngineSink* sink)
+    : config_(config), sink_(sink), associator_(config.association), selector_(config.detector.keyframe), detector_(config.detector) {
+  int n = config_.num_threads > 0 ? config_.num_threads : static_cast<int>(std::thread::hardware_concurrency());
+  if (n < 1) n = 1;
+  stats_.device = detector_.descriptor_device();
+  for (int i = 0; i < n; ++i) workers_.emplace_back([this] { worker_loop(); });
+}
+
+LoopdEngine::~LoopdEngine() {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    stopping_ = true;
+  }
+  queue_cv_.notify_all();
+  space_cv_.notify_all();
+  for (auto& t : workers_) t.join();
+}
+
+bool LoopdEngine::push_scan(std::int64_t utime, PointCloud cloud, double wall_time_s) {
+  std::size_t finite = 0;
+  for (const auto& p : cloud.points) finite += p.allFinite() ? 1 : 0;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.scans_in;
+    stats_.nan_points += static_cast<std::int64_t>(cloud.size() - finite);
+    if (finite == 0 || static_cast<std::int64_t>(cloud.size()) > config_.max_points_per_scan) {
+      ++stats_.invalid_scans;
+      return false;
+    }
+  }
+  if (!associator_.add_scan(utime, std::move(cloud), wall_time_s)) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.invalid_scans;
+    return false;
+  }
+  handle_associated(associator_.poll(wall_time_s, !config_.block_when_full));
+  return true;
+}
+
+bool LoopdEngine::push_pose(const StampedPose& pose, double wall_time_s) {
+  const bool ok = associator_.add_pose(pose);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.poses_in;
+    if (!ok) ++stats_.invalid_poses;
+  }
+  handle_associated(associator_.poll(wall_time_s, !config_.block_when_full));
+  return ok;
+}
+
+void LoopdEngine::tick(double wall_time_s) { handle_associated(associator_.poll(wall_time_s, !config_.block_when_full)); }
+
+void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.dropped_no_pose = associator_.dropped_no_pose();
+    stats_.pending_scans = static_cast<int>(associator_.pending());
+  }
+  for (auto& s : scans) {
+    residual_since_keyframe_ += s.residual_sum;
+    if (!selector_.accept(s.pose.T_world_sensor, s.utime)) continue;
+    Job job;
+    job.input.id = next_keyframe_id_++;
+    job.input.utime = s.utime;
+    job.input.T_odom_sensor = s.pose.T_world_sensor;
+    job.input.residual = residual_since_keyframe_;
+    residual_since_keyframe_ = 0.0;
+    job.cloud = std::move(s.cloud);
+    submit(std::move(job));
+  }
+}
+
+void LoopdEngine::submit(Job job) {
+  std::unique_lock<std::mutex> lock(queue_mutex_);
+  if (config_.block_when_full) {
+    space_cv_.wait(lock, [&] { return static_cast<int>(queue_.size()) < config_.queue_capacity || stopping_; });
+  } else if (static_cast<int>(queue_.size()) >= config_.queue_capacity) {
+    // Load shedding (live): the oldest waiting keyframe keeps its pose but skips features and verification.
+    Job shed = std::move(queue_.front());
+    queue_.pop_front();
+    lock.unlock();
+    {
+      std::lock_guard<std::mutex> s(stats_mutex_);
+      ++stats_.shed;
+    }
+    complete(shed.input.id, shed.input, nullptr);
+    lock.lock();
+  }
+  queue_.push_back(std::move(job));
+  lock.unlock();
+  queue_cv_.notify_one();
+}
+
+void LoopdEngine::worker_loop() {
+  for (;;) {
+    Job job;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      queue_cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+      if (stopping_) return;  // shutdown: queued keyframes are abandoned (finish() drains them first in replay)
+      job = std::move(queue_.front());
+      queue_.pop_front();
+      ++busy_;
+    }
+    space_cv_.notify_one();
+    auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud));
+    job.cloud = PointCloud();
+    if (!features->ok) {
+      std::lock_guard<std::mutex> s(stats_mutex_);
+      ++stats_.feature_failures;
+    }
+    complete(job.input.id, job.input, features);
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      --busy_;
+    }
+  }
+}
+
+void LoopdEngine::complete(std::int64_t id, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features) {
+  std::unique_lock<std::mutex> lock(sequence_mutex_);
+  ready_.emplace(id, std::make_pair(input, std::move(features)));
+  // The sequential stage runs strictly in keyframe order, so live and replay runs make the same decisions.
+  while (!ready_.empty() && ready_.begin()->first == next_to_sequence_) {
+    auto item = std::move(ready_.begin()->second);
+    ready_.erase(ready_.begin());
+    DetectorOutput out = detector_.add_keyframe(item.first, item.second);
+    ++next_to_sequence_;
+    for (const auto& d : out.decisions) sink_->on_decision(d);
+    if (out.correction) sink_->on_correction(*out.correction);
+    {
+      std::lock_guard<std::mutex> s(stats_mutex_);
+      stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
+      stats_.loops_accepted = detector_.loops_accepted();
+      stats_.loops_rejected = detector_.loops_rejected();
+      stats_.bytes_per_keyframe = static_cast<std::int64_t>(detector_.bytes_per_keyframe());
+      T_map_odom_ = detector_.T_map_odom();
+    }
+    sequenced_.fetch_add(1);
+  }
+  lock.unlock();
+  done_cv_.notify_all();
+}
+
+void LoopdEngine::finish() {
+  handle_associated(associator_.flush());
+  {
+    std::lock_guard<std::mutex> s(stats_mutex_);
+    stats_.dropped_no_pose = associator_.dropped_no_pose();
+    stats_.pending_scans = 0;
+  }
+  std::unique_lock<std::mutex> lock(done_mutex_);
+  while (!done_cv_.wait_for(lock, std::chrono::milliseconds(20), [&] { return sequenced_.load() >= next_keyframe_id_; })) {
+  }
+}
+
+EngineStats LoopdEngine::stats() const {
+  EngineStats s;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    s = stats_;
+  }
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  s.queue_depth = static_cast<int>(queue_.size()) + busy_;
+  return s;
+}
+
+Eigen::Isometry3d LoopdEngine::T_map_odom() const {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  return T_map_odom_;
+}
+
+}  // namespace loopd

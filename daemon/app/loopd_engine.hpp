@@ -1,0 +1,116 @@
+#pragma once
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "loopd/pipeline/keyframe_selector.hpp"
+#include "loopd/pipeline/loop_detector.hpp"
+#include "scan_pose_associator.hpp"
+
+namespace loopd {
+
+/// @brief Engine settings beyond the detector's: association, threads, queues, input limits.
+struct EngineConfig {
+  AssociationConfig association;
+  LoopDetectorConfig detector;
+  int num_threads = 0;                   ///< feature/verification workers; 0 = hardware threads
+  int queue_capacity = 16;               ///< keyframes waiting for a worker
+  bool block_when_full = false;          ///< replay: wait for workers; live: shed (see README "Load shedding")
+  std::int64_t max_points_per_scan = 2000000;  ///< larger scans are rejected as invalid
+  std::optional<std::string> validate() const;
+};
+
+/// @brief Receives the engine's results (called from a worker thread, one call at a time).
+class EngineSink {
+ public:
+  virtual ~EngineSink() = default;
+  virtual void on_decision(const LoopDecision& decision) = 0;
+  virtual void on_correction(const CorrectionOutput& correction) = 0;
+};
+
+/// @brief Counters reported in status_t.
+struct EngineStats {
+  std::int64_t scans_in = 0, poses_in = 0;
+  std::int64_t invalid_scans = 0;       ///< empty, all non-finite, too large, duplicate or out-of-order utime
+  std::int64_t invalid_poses = 0;       ///< duplicate or out-of-order utime
+  std::int64_t dropped_no_pose = 0;     ///< scans with no pose within tolerance / hold time
+  std::int64_t keyframes = 0;
+  std::int64_t shed = 0;                ///< keyframes whose features were skipped because the queue was full
+  std::int64_t feature_failures = 0;    ///< keyframes whose descriptor/segmentation failed (too few points...)
+  std::int64_t nan_points = 0;
+  int queue_depth = 0;
+  int pending_scans = 0;
+  std::int64_t loops_accepted = 0, loops_rejected = 0;
+  std::int64_t bytes_per_keyframe = 0;
+  std::string device;
+};
+
+/// @brief Scan/pose association, keyframe selection, a worker pool for features and an in-order sequential
+///        stage running the LoopDetector. Transport-free: the daemon feeds it from LCM, tests feed it directly.
+///        push_* and tick() must be called from one thread.
+class LoopdEngine {
+ public:
+  LoopdEngine(const EngineConfig& config, EngineSink* sink);
+  ~LoopdEngine();
+  LoopdEngine(const LoopdEngine&) = delete;
+  LoopdEngine& operator=(const LoopdEngine&) = delete;
+
+  /// @brief A decoded scan. Returns false (counted) when it is invalid.
+  bool push_scan(std::int64_t utime, PointCloud cloud, double wall_time_s);
+  /// @brief A decoded odometry pose. Returns false (counted) for a duplicate or out-of-order utime.
+  bool push_pose(const StampedPose& pose, double wall_time_s);
+  /// @brief Lets waiting scans time out on the wall clock (live mode).
+  void tick(double wall_time_s);
+  /// @brief End of input: associates what it can and waits until every keyframe has been processed.
+  void finish();
+  EngineStats stats() const;
+  /// @brief The current map<-odometry correction (identity before the first loop).
+  Eigen::Isometry3d T_map_odom() const;
+
+ private:
+  struct Job {
+    KeyframeInput input;
+    PointCloud cloud;
+  };
+  void handle_associated(std::vector<AssociatedScan> scans);
+  void submit(Job job);
+  void worker_loop();
+  void complete(std::int64_t id, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features);
+
+  EngineConfig config_;
+  EngineSink* sink_;
+  ScanPoseAssociator associator_;
+  KeyframeSelector selector_;
+  LoopDetector detector_;
+  std::int64_t next_keyframe_id_ = 0;
+  double residual_since_keyframe_ = 0.0;
+
+  mutable std::mutex queue_mutex_;
+  std::condition_variable queue_cv_;
+  std::condition_variable space_cv_;
+  std::deque<Job> queue_;
+  int busy_ = 0;
+  bool stopping_ = false;
+  std::vector<std::thread> workers_;
+
+  std::mutex sequence_mutex_;
+  std::map<std::int64_t, std::pair<KeyframeInput, std::shared_ptr<const KeyframeFeatures>>> ready_;
+  std::int64_t next_to_sequence_ = 0;
+  std::condition_variable done_cv_;
+  std::mutex done_mutex_;
+  std::atomic<std::int64_t> sequenced_{0};
+
+  mutable std::mutex stats_mutex_;
+  EngineStats stats_;
+  Eigen::Isometry3d T_map_odom_ = Eigen::Isometry3d::Identity();
+};
+
+}  // namespace loopd

@@ -1,0 +1,99 @@
+#include "output_messages.hpp"
+
+#include <Eigen/Geometry>
+#include <cstdlib>
+#include <fstream>
+
+#include "loopd/core/pose.hpp"
+
+namespace loopd {
+
+loop_event_t to_message(const LoopDecision& d, std::int64_t utime) {
+  loop_event_t m{};
+  m.utime = utime;
+  m.event_id = d.event_id;
+  m.query_id = d.query_id;
+  m.query_utime = d.query_utime;
+  m.match_id = d.match_id;
+  m.match_utime = d.match_utime;
+  m.status = static_cast<int8_t>(d.status);
+  m.stage = d.stage;
+  m.reason = d.reason;
+  m.gate_distance = d.gate_distance;
+  m.gate_radius = d.gate_radius;
+  m.descriptor_distance = d.descriptor_distance;
+  m.lcp_fraction = d.lcp_fraction;
+  m.icp_residual = d.icp_residual;
+  m.icp_fitness = d.icp_fitness;
+  m.hungarian_consistency = d.hungarian_consistency;
+  m.degeneracy = d.degeneracy;
+  to_row_major(d.T_match_query, m.T_match_query);
+  m.ms_descriptor = d.ms_descriptor;
+  m.ms_fourpcs = d.ms_fourpcs;
+  m.ms_gicp = d.ms_gicp;
+  m.ms_hungarian = d.ms_hungarian;
+  m.ms_total = d.ms_total;
+  return m;
+}
+
+trajectory_t to_message(const CorrectionOutput& c, std::int64_t utime) {
+  trajectory_t m{};
+  m.utime = utime;
+  m.revision = c.revision;
+  m.loop_event_id = c.loop_event_id;
+  m.method = c.method;
+  to_row_major(c.T_map_odom, m.T_map_odom);
+  m.num_keyframes = static_cast<int32_t>(c.T_map_sensor.size());
+  m.keyframes.resize(c.T_map_sensor.size());
+  for (std::size_t i = 0; i < c.T_map_sensor.size(); ++i) {
+    keyframe_pose_t& k = m.keyframes[i];
+    k.id = i < c.ids.size() ? c.ids[i] : static_cast<std::int64_t>(i);
+    k.utime = i < c.utimes.size() ? c.utimes[i] : 0;
+    const Eigen::Vector3d t = c.T_map_sensor[i].translation();
+    const Eigen::Quaterniond q(c.T_map_sensor[i].linear());
+    for (int j = 0; j < 3; ++j) k.position[j] = t[j];
+    k.orientation[0] = q.w();
+    k.orientation[1] = q.x();
+    k.orientation[2] = q.y();
+    k.orientation[3] = q.z();
+  }
+  return m;
+}
+
+status_t make_status(std::int64_t utime, double uptime_s, const EngineStats& s, const std::vector<ChannelCounters>& channels,
+                     std::int64_t memory_bytes) {
+  status_t m{};
+  m.utime = utime;
+  m.uptime_s = uptime_s;
+  m.num_channels = static_cast<int32_t>(channels.size());
+  for (const auto& c : channels) {
+    channel_stats_t cs;
+    cs.channel = c.channel;
+    cs.received = c.received;
+    cs.accepted = c.accepted;
+    cs.malformed = c.malformed;
+    cs.dropped = c.dropped;
+    m.channels.push_back(cs);
+  }
+  m.pending_scans = s.pending_scans;
+  m.queue_depth = s.queue_depth;
+  m.shed = s.shed;
+  m.invalid_scans = s.invalid_scans;
+  m.keyframes = s.keyframes;
+  m.bytes_per_keyframe = s.bytes_per_keyframe;
+  m.loops_accepted = s.loops_accepted;
+  m.loops_rejected = s.loops_rejected;
+  m.memory_bytes = memory_bytes;
+  m.device = s.device;
+  return m;
+}
+
+std::int64_t resident_memory_bytes() {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::atoll(line.c_str() + 6) * 1024;
+  return 0;
+}
+
+}  // namespace loopd

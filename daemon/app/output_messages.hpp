@@ -1,0 +1,31 @@
+#pragma once
+#include <string>
+#include <vector>
+
+#include <loopd/loop_event_t.hpp>
+#include <loopd/status_t.hpp>
+#include <loopd/trajectory_t.hpp>
+
+#include "loopd_engine.hpp"
+
+namespace loopd {
+
+/// @brief loop_event_t for one decision; utime is the decision time [us].
+loop_event_t to_message(const LoopDecision& d, std::int64_t utime);
+/// @brief trajectory_t for one correction; utime is the publication time [us].
+trajectory_t to_message(const CorrectionOutput& c, std::int64_t utime);
+
+/// @brief Counters of one input channel (LCM side).
+struct ChannelCounters {
+  std::string channel;
+  std::int64_t received = 0, accepted = 0, malformed = 0, dropped = 0;
+};
+
+/// @brief status_t from the engine's and the channels' counters.
+status_t make_status(std::int64_t utime, double uptime_s, const EngineStats& s, const std::vector<ChannelCounters>& channels,
+                     std::int64_t memory_bytes);
+
+/// @brief Resident memory of this process [bytes] (VmRSS), 0 when unknown.
+std::int64_t resident_memory_bytes();
+
+}  // namespace loopd

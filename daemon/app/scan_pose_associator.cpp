@@ -1,0 +1,114 @@
+#include "scan_pose_associator.hpp"
+
+#include <algorithm>
+
+namespace loopd {
+
+std::optional<std::string> AssociationConfig::validate() const {
+  if (!(tolerance > 0.0)) return "association.tolerance must be > 0 [s]";
+  if (!(hold_time > 0.0)) return "association.hold_time must be > 0 [s]";
+  if (max_pending_scans < 1) return "association.max_pending_scans must be >= 1";
+  if (max_poses < 2) return "association.max_poses must be >= 2";
+  return std::nullopt;
+}
+
+bool ScanPoseAssociator::add_pose(const StampedPose& pose) {
+  if (!poses_.empty() && pose.utime <= poses_.back().utime) {
+    ++rejected_pose_order_;
+    return false;
+  }
+  poses_.push_back(pose);
+  while (static_cast<int>(poses_.size()) > config_.max_poses) poses_.pop_front();
+  return true;
+}
+
+bool ScanPoseAssociator::add_scan(std::int64_t utime, PointCloud cloud, double wall_time_s) {
+  if (last_scan_utime_ && utime <= *last_scan_utime_) {
+    ++rejected_scan_order_;
+    return false;
+  }
+  last_scan_utime_ = utime;
+  scans_.push_back({utime, std::move(cloud), wall_time_s});
+  while (static_cast<int>(scans_.size()) > config_.max_pending_scans) {
+    scans_.pop_front();
+    ++dropped_no_pose_;
+  }
+  return true;
+}
+
+std::optional<StampedPose> ScanPoseAssociator::pose_at(std::int64_t utime) const {
+  if (poses_.empty()) return std::nullopt;
+  const auto tol = static_cast<std::int64_t>(config_.tolerance * 1e6);
+  auto it = std::lower_bound(poses_.begin(), poses_.end(), utime, [](const StampedPose& p, std::int64_t t) { return p.utime < t; });
+  if (it != poses_.end() && it->utime == utime) return *it;  // exact match
+  if (it == poses_.end() || it == poses_.begin()) return std::nullopt;
+  const StampedPose& b = *it;
+  const StampedPose& a = *(it - 1);
+  if (utime - a.utime > tol || b.utime - utime > tol) return std::nullopt;
+  const double alpha = static_cast<double>(utime - a.utime) / static_cast<double>(b.utime - a.utime);
+  StampedPose p;
+  p.utime = utime;
+  p.T_world_sensor = interpolate(a.T_world_sensor, b.T_world_sensor, alpha);
+  p.residual = b.residual;
+  return p;
+}
+
+double ScanPoseAssociator::residual_between(std::int64_t from, std::int64_t to) const {
+  double sum = 0.0;
+  for (const auto& p : poses_)
+    if (p.utime > from && p.utime <= to) sum += p.residual;
+  return sum;
+}
+
+std::optional<AssociatedScan> ScanPoseAssociator::resolve(Pending& p) {
+  auto pose = pose_at(p.utime);
+  if (!pose) return std::nullopt;
+  AssociatedScan s;
+  s.utime = p.utime;
+  s.cloud = std::move(p.cloud);
+  s.pose = *pose;
+  s.residual_sum = last_resolved_utime_ ? residual_between(*last_resolved_utime_, p.utime) : pose->residual;
+  last_resolved_utime_ = p.utime;
+  return s;
+}
+
+std::vector<AssociatedScan> ScanPoseAssociator::poll(double wall_time_s, bool use_wall_clock) {
+  std::vector<AssociatedScan> out;
+  const auto hold = static_cast<std::int64_t>(config_.hold_time * 1e6);
+  const auto tol = static_cast<std::int64_t>(config_.tolerance * 1e6);
+  while (!scans_.empty()) {
+    Pending& p = scans_.front();
+    if (auto s = resolve(p)) {
+      out.push_back(std::move(*s));
+      scans_.pop_front();
+      continue;
+    }
+    const std::int64_t newest = poses_.empty() ? INT64_MIN : poses_.back().utime;
+    // Give up when poses have moved past the scan without bracketing it, when data time has run past the hold
+    // time, or (live) when the scan has waited longer than the hold time on the wall clock.
+    const bool passed = newest != INT64_MIN && newest >= p.utime + tol;
+    const bool data_timeout = newest != INT64_MIN && newest - p.utime > hold;
+    const bool wall_timeout = use_wall_clock && wall_time_s - p.arrival_wall_s > config_.hold_time;
+    if (passed || data_timeout || wall_timeout) {
+      ++dropped_no_pose_;
+      scans_.pop_front();
+      continue;
+    }
+    break;  // keep order: later scans wait behind this one
+  }
+  return out;
+}
+
+std::vector<AssociatedScan> ScanPoseAssociator::flush() {
+  std::vector<AssociatedScan> out;
+  while (!scans_.empty()) {
+    if (auto s = resolve(scans_.front()))
+      out.push_back(std::move(*s));
+    else
+      ++dropped_no_pose_;
+    scans_.pop_front();
+  }
+  return out;
+}
+
+}  // namespace loopd

@@ -1,0 +1,66 @@
+#include "loopd/pipeline/distance_gate.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace loopd {
+
+std::optional<std::string> DistanceGateConfig::validate() const {
+  if (!(travel_fraction > 0.0)) return "gate.travel_fraction must be > 0";
+  if (!(min_radius > 0.0)) return "gate.min_radius must be > 0";
+  if (!(max_radius >= min_radius)) return "gate.max_radius must be >= gate.min_radius";
+  if (min_index_gap < 1) return "gate.min_index_gap must be >= 1";
+  if (!(min_travel_gap >= 0.0)) return "gate.min_travel_gap must be >= 0";
+  return std::nullopt;
+}
+
+double DistanceGate::radius(double travelled_since_loop) const {
+  return std::clamp(config_.travel_fraction * travelled_since_loop, config_.min_radius, config_.max_radius);
+}
+
+DistanceGate::CellKey DistanceGate::key(const Eigen::Vector3d& p) const {
+  // Cells in the ground plane, one max_radius wide: a query touches at most 3x3 cells.
+  const double cell = config_.max_radius;
+  const std::int64_t ix = static_cast<std::int64_t>(std::floor(p.x() / cell));
+  const std::int64_t iy = static_cast<std::int64_t>(std::floor(p.y() / cell));
+  return (ix << 32) ^ (iy & 0xffffffffLL);
+}
+
+void DistanceGate::add(const GateEntry& entry) {
+  cells_[key(entry.position)].push_back(entries_.size());
+  entries_.push_back(entry);
+}
+
+void DistanceGate::update_positions(const std::vector<Eigen::Vector3d>& positions) {
+  for (std::size_t i = 0; i < entries_.size() && i < positions.size(); ++i) entries_[i].position = positions[i];
+  rebuild();
+}
+
+void DistanceGate::rebuild() {
+  cells_.clear();
+  for (std::size_t i = 0; i < entries_.size(); ++i) cells_[key(entries_[i].position)].push_back(i);
+}
+
+std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, double radius) const {
+  std::vector<GateCandidate> out;
+  const double cell = config_.max_radius;
+  const std::int64_t cx = static_cast<std::int64_t>(std::floor(query.position.x() / cell));
+  const std::int64_t cy = static_cast<std::int64_t>(std::floor(query.position.y() / cell));
+  for (std::int64_t dx = -1; dx <= 1; ++dx) {
+    for (std::int64_t dy = -1; dy <= 1; ++dy) {
+      const auto it = cells_.find(((cx + dx) << 32) ^ ((cy + dy) & 0xffffffffLL));
+      if (it == cells_.end()) continue;
+      for (std::size_t i : it->second) {
+        const GateEntry& e = entries_[i];
+        if (query.id - e.id < config_.min_index_gap) continue;
+        if (query.travelled - e.travelled < config_.min_travel_gap) continue;
+        const double d = (e.position - query.position).norm();
+        if (d <= radius) out.push_back({e.id, d});
+      }
+    }
+  }
+  std::sort(out.begin(), out.end(), [](const GateCandidate& a, const GateCandidate& b) { return a.distance < b.distance || (a.distance == b.distance && a.id < b.id); });
+  return out;
+}
+
+}  // namespace loopd

@@ -1,0 +1,192 @@
+#include "loopd/pipeline/loop_detector.hpp"
+
+#include <algorithm>
+
+#include "loopd/core/cloud_ops.hpp"
+#include "loopd/core/stopwatch.hpp"
+
+namespace loopd {
+
+struct LoopDetector::StoredKeyframe {
+  KeyframeInput input;
+  std::shared_ptr<const KeyframeFeatures> features;  ///< null when shed
+  double travelled = 0.0;
+};
+
+std::optional<std::string> LoopDetectorConfig::validate() const {
+  if (!lidar_model_from_name(sensor)) return "sensor: unknown lidar model '" + sensor + "' (vlp16, hdl32, hdl64, os1-64)";
+  if (auto e = keyframe.validate()) return e;
+  if (auto e = gate.validate()) return e;
+  if (auto e = m2dp.validate()) return "m2dp: " + *e;
+  if (auto e = verify.validate()) return "verify: " + *e;
+  if (auto e = correction.validate()) return "correction: " + *e;
+  if (!(max_descriptor_distance > 0.0)) return "max_descriptor_distance must be > 0";
+  if (max_candidates_per_keyframe < 1) return "max_candidates_per_keyframe must be >= 1";
+  return std::nullopt;
+}
+
+LoopDetector::LoopDetector(const LoopDetectorConfig& config)
+    : config_(config),
+      model_(lidar_model_from_name(config.sensor)),
+      m2dp_(std::make_unique<M2dp>(config.m2dp)),
+      gate_(config.gate),
+      corrector_(config.correction) {}
+
+LoopDetector::~LoopDetector() = default;
+
+KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
+  KeyframeFeatures f;
+  f.input_points = scan.size();
+  std::size_t removed = 0;
+  const PointCloud clean = remove_non_finite(scan, &removed);
+  f.invalid_points = removed;
+  if (clean.size() < 100) {
+    f.error = "scan has " + std::to_string(clean.size()) + " finite points (need >= 100)";
+    return f;
+  }
+  Stopwatch sw;
+  M2dpResult d = m2dp_->compute(clean);
+  f.ms_descriptor = sw.ms();
+  if (!d.ok) {
+    f.error = "descriptor: " + d.error;
+    return f;
+  }
+  f.descriptor = std::move(d.descriptor);
+  sw.reset();
+  f.prepared = prepare_scan(clean, model_ ? &*model_ : nullptr, config_.prepare);
+  f.ms_prepare = sw.ms();
+  f.ok = true;
+  return f;
+}
+
+LoopDecision LoopDetector::make_decision(const KeyframeInput& q, const StoredKeyframe& m, double gate_distance, double radius) {
+  LoopDecision d;
+  d.event_id = next_event_id_++;
+  d.query_id = q.id;
+  d.query_utime = q.utime;
+  d.match_id = m.input.id;
+  d.match_utime = m.input.utime;
+  d.gate_distance = gate_distance;
+  d.gate_radius = radius;
+  return d;
+}
+
+DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features) {
+  DetectorOutput out;
+  if (!keyframes_.empty()) travelled_ += (keyframes_.back().input.T_odom_sensor.inverse() * input.T_odom_sensor).translation().norm();
+  if (features && !features->ok) features.reset();
+
+  // Current best estimate of where this keyframe is: the odometry pose in the corrected map frame.
+  corrector_.add_pose(input.T_odom_sensor, input.residual);
+  const Eigen::Isometry3d T_map_query = corrector_.T_map_odom() * input.T_odom_sensor;
+
+  StoredKeyframe stored{input, features, travelled_};
+  if (features) {
+    stored_bytes_ += features->prepared.bytes() + static_cast<std::size_t>(features->descriptor.size()) * sizeof(float);
+    ++featured_keyframes_;
+  }
+  stored_bytes_ += sizeof(StoredKeyframe);
+  keyframes_.push_back(stored);
+  const GateEntry query{input.id, T_map_query.translation(), travelled_};
+
+  if (features) {
+    // Vlaminck 2019 Sec. 4: candidates within 10% of the distance travelled since the last loop.
+    const double radius = gate_.radius(travelled_ - travelled_at_last_loop_);
+    struct Ranked {
+      const StoredKeyframe* kf;
+      double gate_distance;
+      double descriptor_distance;
+    };
+    std::vector<Ranked> ranked;
+    for (const GateCandidate& c : gate_.candidates(query, radius)) {
+      const StoredKeyframe& m = keyframes_[static_cast<std::size_t>(c.id)];
+      if (!m.features) continue;
+      ranked.push_back({&m, c.distance, descriptor_distance(features->descriptor, m.features->descriptor)});
+    }
+    std::sort(ranked.begin(), ranked.end(), [](const Ranked& a, const Ranked& b) {
+      return a.descriptor_distance < b.descriptor_distance || (a.descriptor_distance == b.descriptor_distance && a.kf->input.id < b.kf->input.id);
+    });
+
+    int verified = 0;
+    for (const Ranked& r : ranked) {
+      if (r.descriptor_distance > config_.max_descriptor_distance || verified >= config_.max_candidates_per_keyframe) {
+        if (verified == 0) {
+          // Report the best gated candidate's descriptor score even when it is not verified (PR curves need it).
+          LoopDecision d = make_decision(input, *r.kf, r.gate_distance, radius);
+          d.status = LoopStatus::kRejected;
+          d.stage = "descriptor";
+          d.descriptor_distance = r.descriptor_distance;
+          d.ms_descriptor = features->ms_descriptor;
+          d.reason = "descriptor distance above threshold";
+          ++loops_rejected_;
+          out.decisions.push_back(d);
+        }
+        break;
+      }
+      ++verified;
+      LoopDecision d = make_decision(input, *r.kf, r.gate_distance, radius);
+      d.descriptor_distance = r.descriptor_distance;
+      d.ms_descriptor = features->ms_descriptor;
+      const VerifyResult v = verify(features->prepared, r.kf->features->prepared, config_.verify);
+      d.stage = v.accepted ? "accepted" : to_string(v.stage);
+      d.reason = v.reason;
+      d.lcp_fraction = v.lcp_fraction;
+      d.icp_residual = v.icp_residual;
+      d.icp_fitness = v.icp_fitness;
+      d.hungarian_consistency = v.hungarian_consistency;
+      d.degeneracy = v.degeneracy;
+      d.T_match_query = v.T_match_query;
+      d.ms_fourpcs = v.ms_fourpcs;
+      d.ms_gicp = v.ms_gicp;
+      d.ms_hungarian = v.ms_hungarian;
+      d.ms_total = v.ms_total + features->ms_descriptor;
+      d.status = v.accepted ? LoopStatus::kAccepted : LoopStatus::kRejected;
+      out.decisions.push_back(d);
+      if (!v.accepted) {
+        ++loops_rejected_;
+        continue;
+      }
+      ++loops_accepted_;
+      travelled_at_last_loop_ = travelled_;
+      Stopwatch sw;
+      LoopConstraint loop;
+      loop.query_index = static_cast<int>(input.id);
+      loop.match_index = static_cast<int>(r.kf->input.id);
+      loop.T_match_query = v.T_match_query;
+      loop.information = v.information;
+      corrector_.add_loop(loop);
+      CorrectionOutput c;
+      c.revision = ++revision_;
+      c.loop_event_id = d.event_id;
+      c.method = corrector_.method_name();
+      c.T_map_sensor = corrector_.corrected_poses();
+      c.T_map_odom = corrector_.T_map_odom();
+      c.ids.reserve(keyframes_.size());
+      c.utimes.reserve(keyframes_.size());
+      for (const auto& k : keyframes_) {
+        c.ids.push_back(k.input.id);
+        c.utimes.push_back(k.input.utime);
+      }
+      std::vector<Eigen::Vector3d> positions;
+      positions.reserve(c.T_map_sensor.size());
+      for (const auto& T : c.T_map_sensor) positions.push_back(T.translation());
+      c.ms = sw.ms();
+      out.correction = std::move(c);
+      break;
+    }
+  }
+  gate_.add({input.id, T_map_query.translation(), travelled_});
+  if (out.correction) {
+    std::vector<Eigen::Vector3d> positions;
+    for (const auto& T : out.correction->T_map_sensor) positions.push_back(T.translation());
+    gate_.update_positions(positions);
+  }
+  return out;
+}
+
+Eigen::Isometry3d LoopDetector::T_map_odom() const { return corrector_.T_map_odom(); }
+std::size_t LoopDetector::num_keyframes() const { return keyframes_.size(); }
+std::size_t LoopDetector::bytes_per_keyframe() const { return keyframes_.empty() ? 0 : stored_bytes_ / keyframes_.size(); }
+std::string LoopDetector::descriptor_device() const { return m2dp_->device_name(); }
+
+}  // namespace loopd

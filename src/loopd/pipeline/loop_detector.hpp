@@ -1,0 +1,132 @@
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "loopd/core/lidar_model.hpp"
+#include "loopd/core/point_cloud.hpp"
+#include "loopd/core/pose.hpp"
+#include "loopd/correction/loop_corrector.hpp"
+#include "loopd/descriptor/m2dp.hpp"
+#include "loopd/pipeline/distance_gate.hpp"
+#include "loopd/pipeline/keyframe_selector.hpp"
+#include "loopd/verify/verify.hpp"
+
+namespace loopd {
+
+/// @brief Everything the loop detector can be tuned with; defaults from the papers where they give one.
+struct LoopDetectorConfig {
+  std::string sensor = "hdl64";        ///< lidar model preset (vlp16, hdl32, hdl64, os1-64) for segmentation
+  KeyframeConfig keyframe;             ///< Ren 2019 Sec. 3.3.2
+  DistanceGateConfig gate;             ///< Vlaminck 2019 Sec. 4, Ren 2019 Sec. 3.4.1
+  M2dpConfig m2dp;                     ///< Vlaminck 2019 Sec. 4.1 (l=8, t=16, p=4, q=16)
+  PrepareConfig prepare;               ///< downsampling + segmentation of a keyframe
+  VerifyConfig verify;                 ///< Vlaminck 2019 Sec. 4.2-4.3
+  double max_descriptor_distance = 0.35;  ///< candidates above this M2DP distance are not verified
+  int max_candidates_per_keyframe = 3;    ///< verified best first, at most this many per keyframe
+  LoopCorrectorConfig correction;      ///< Vlaminck 2019 Sec. 4.4 / Ren 2019 Sec. 3.4.3
+  std::optional<std::string> validate() const;
+};
+
+/// @brief Features of one keyframe, computed on a worker thread.
+struct KeyframeFeatures {
+  bool ok = false;
+  std::string error;
+  Eigen::VectorXf descriptor;
+  PreparedScan prepared;
+  double ms_descriptor = 0.0;
+  double ms_prepare = 0.0;
+  std::size_t input_points = 0;
+  std::size_t invalid_points = 0;  ///< NaN/Inf points removed
+};
+
+/// @brief A keyframe as handed to the sequential stage.
+struct KeyframeInput {
+  std::int64_t id = 0;      ///< consecutive from 0
+  std::int64_t utime = 0;   ///< scan time [us]
+  Eigen::Isometry3d T_odom_sensor = Eigen::Isometry3d::Identity();
+  double residual = 0.0;    ///< odometry residual accumulated since the previous keyframe [m]
+};
+
+enum class LoopStatus { kCandidate = 0, kAccepted = 1, kRejected = 2 };
+
+/// @brief One decision, mirrored 1:1 by loop_event_t.
+struct LoopDecision {
+  std::int64_t event_id = 0;
+  std::int64_t query_id = 0, query_utime = 0, match_id = 0, match_utime = 0;
+  LoopStatus status = LoopStatus::kCandidate;
+  std::string stage;   ///< gate, descriptor, fourpcs, gicp, degeneracy, hungarian, accepted
+  std::string reason;
+  double gate_distance = 0.0, gate_radius = 0.0, descriptor_distance = -1.0;
+  double lcp_fraction = -1.0, icp_residual = -1.0, icp_fitness = -1.0, hungarian_consistency = -1.0, degeneracy = -1.0;
+  Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
+  double ms_descriptor = 0.0, ms_fourpcs = 0.0, ms_gicp = 0.0, ms_hungarian = 0.0, ms_total = 0.0;
+};
+
+/// @brief A corrected trajectory, mirrored by trajectory_t.
+struct CorrectionOutput {
+  std::int64_t revision = 0;
+  std::int64_t loop_event_id = 0;
+  std::string method;
+  std::vector<std::int64_t> ids;
+  std::vector<std::int64_t> utimes;
+  std::vector<Eigen::Isometry3d> T_map_sensor;
+  Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();
+  double ms = 0.0;
+};
+
+/// @brief What one keyframe produced.
+struct DetectorOutput {
+  std::vector<LoopDecision> decisions;
+  std::optional<CorrectionOutput> correction;
+};
+
+/// @brief Loop detection and correction over a stream of keyframes (Vlaminck 2019, Fig. 1):
+///        distance gate -> M2DP ranking -> 4PCS -> GICP -> Hungarian -> correction.
+///        compute_features() is thread-safe and may run on many workers; add_keyframe() must be called
+///        in keyframe order from one thread at a time.
+class LoopDetector {
+ public:
+  explicit LoopDetector(const LoopDetectorConfig& config);
+  ~LoopDetector();
+
+  /// @brief Descriptor + prepared scan of one keyframe (heavy, thread-safe).
+  KeyframeFeatures compute_features(const PointCloud& scan) const;
+  /// @brief Adds a keyframe. `features` may be null when the keyframe was shed under load: its pose still
+  ///        enters the trajectory but it is neither a query nor a candidate.
+  DetectorOutput add_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features);
+
+  /// @brief Corrected pose of an odometry pose received after the newest keyframe.
+  Eigen::Isometry3d T_map_odom() const;
+  std::size_t num_keyframes() const;
+  std::int64_t loops_accepted() const { return loops_accepted_; }
+  std::int64_t loops_rejected() const { return loops_rejected_; }
+  /// @brief Average bytes held per stored keyframe (descriptor + prepared scan + pose).
+  std::size_t bytes_per_keyframe() const;
+  std::string descriptor_device() const;
+  const LoopDetectorConfig& config() const { return config_; }
+
+ private:
+  struct StoredKeyframe;
+  LoopDecision make_decision(const KeyframeInput& q, const StoredKeyframe& m, double gate_distance, double radius);
+
+  LoopDetectorConfig config_;
+  std::optional<LidarModel> model_;
+  std::unique_ptr<M2dp> m2dp_;
+  DistanceGate gate_;
+  LoopCorrector corrector_;
+  std::vector<StoredKeyframe> keyframes_;
+  std::size_t stored_bytes_ = 0;
+  std::size_t featured_keyframes_ = 0;
+  double travelled_ = 0.0;
+  double travelled_at_last_loop_ = 0.0;
+  std::int64_t next_event_id_ = 0;
+  std::int64_t revision_ = 0;
+  std::int64_t loops_accepted_ = 0;
+  std::int64_t loops_rejected_ = 0;
+};
+
+}  // namespace loopd
