@@ -17,15 +17,17 @@ struct SegmentationConfig {
   int elevation_bins = 64;               ///< rings to bin elevations into when neither ring indices nor a model exist
   double min_range = 1.0;                ///< [m] points closer are ignored (ego vehicle)
   double max_range = 80.0;               ///< [m] points farther are ignored
-  double max_neighbor_distance = 0.6;    ///< [m] comparator 1: max 3D distance between neighbouring pixels, at 10 m range
-  double distance_range_scale = 0.05;    ///< [m/m] allowed neighbour distance grows by this per metre beyond 10 m range
+  double max_neighbor_distance = 0.6;    ///< [m] comparator 1: max 3D distance between neighbouring pixels (near range)
+  double distance_range_scale = 0.1;     ///< [m/m] allowed neighbour distance is max(max_neighbor_distance, this * range)
   double max_normal_angle_deg = 12.0;    ///< [deg] comparator 2: max deviation of neighbouring surface normals
   int min_cluster_points = 30;           ///< clusters with fewer points are dropped
   double plane_rms_tolerance = 0.08;     ///< [m] a cluster is planar when the RMS of its point-to-plane distances is below this
   double min_plane_extent = 1.0;         ///< [m] planar clusters need a second-largest extent at least this
   double keep_voxel_size = 0.7;          ///< [m] voxel size for the downsampled cluster members kept in Cluster::points
-  int max_kept_points_per_cluster = 64;  ///< cap on Cluster::points (memory: PreparedScan <= ~120 KB)
-  int max_clusters = 64;                 ///< keep at most this many clusters (largest first)
+  int max_kept_points_per_cluster = 48;  ///< cap on Cluster::points (memory: PreparedScan <= ~120 KB)
+  int max_hull_points = 24;              ///< cap on Cluster::hull (least-area vertices dropped first)
+  double min_hull_spacing = 0.5;         ///< [m] hull vertices closer than this to the previous one are merged
+  int max_clusters = 48;                 ///< keep at most this many clusters (largest first)
 
   /// @brief Empty when valid, otherwise what is wrong.
   std::optional<std::string> validate() const;
