@@ -1,0 +1,42 @@
+#include <catch2/catch.hpp>
+
+#include "daemon_config.hpp"
+
+using namespace loopd;
+
+TEST_CASE("the defaults are valid and survive a dump/load round trip") {
+  DaemonConfig c;
+  std::string error;
+  REQUIRE(load_config_text("", &c, &error));
+  const std::string yaml = dump_config(c);
+  DaemonConfig back;
+  REQUIRE(load_config_text(yaml, &back, &error));
+  CHECK(dump_config(back) == yaml);
+  CHECK(yaml.find("min_radius") != std::string::npos);
+}
+
+TEST_CASE("a wrong value is refused with the field's name") {
+  DaemonConfig c;
+  std::string error;
+  CHECK_FALSE(load_config_text("gate:\n  min_radius: abc\n", &c, &error));
+  CHECK(error.find("gate.min_radius") != std::string::npos);
+  error.clear();
+  CHECK_FALSE(load_config_text("gate:\n  min_radius: -3\n", &c, &error));
+  CHECK(error.find("gate.min_radius") != std::string::npos);
+  error.clear();
+  CHECK_FALSE(load_config_text("association:\n  tolerence: 0.1\n", &c, &error));
+  CHECK(error.find("association.tolerence") != std::string::npos);
+  error.clear();
+  CHECK_FALSE(load_config_text("sensor: hdl99\n", &c, &error));
+  CHECK(error.find("sensor") != std::string::npos);
+}
+
+TEST_CASE("values are read into the config") {
+  DaemonConfig c;
+  std::string error;
+  REQUIRE(load_config_text("sensor: vlp16\nchannels:\n  scan: MY_SCAN\nkeyframe:\n  min_distance: 3.5\nthreads: 2\n", &c, &error));
+  CHECK(c.engine.detector.sensor == "vlp16");
+  CHECK(c.node.scan_channel == "MY_SCAN");
+  CHECK(c.engine.detector.keyframe.min_distance == 3.5);
+  CHECK(c.engine.num_threads == 2);
+}
