@@ -1,0 +1,156 @@
+#include "eval_log.hpp"
+
+#include <filesystem>
+#include <loopd/loop_event_t.hpp>
+#include <loopd/point_cloud_t.hpp>
+#include <loopd/pose_t.hpp>
+#include <loopd/trajectory_t.hpp>
+
+#include "lcm_log.hpp"
+#include "message_convert.hpp"
+
+namespace loopd::tools {
+namespace {
+
+constexpr std::int64_t kEventHeaderBytes = 28;  // lcm-logger: sync, eventnum, timestamp, channel and data lengths
+
+std::int64_t file_bytes(const std::string& path) {
+  std::error_code ec;
+  const auto n = std::filesystem::file_size(path, ec);
+  return ec ? 0 : static_cast<std::int64_t>(n);
+}
+
+std::int64_t read_be64(const std::uint8_t* p) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v = (v << 8) | p[i];
+  return static_cast<std::int64_t>(v);
+}
+
+/// The utime of an encoded point_cloud_t without decoding its arrays: fingerprint (8 bytes), then int64 utime.
+bool scan_utime(const LogEvent& ev, std::int64_t* utime) {
+  if (ev.data.size() < 16) return false;
+  if (read_be64(ev.data.data()) != point_cloud_t::getHash()) return false;
+  *utime = read_be64(ev.data.data() + 8);
+  return true;
+}
+
+}  // namespace
+
+bool read_drive_log(const std::string& path, const EvalChannels& ch, EvalInput* input, LogReadStats* stats,
+                    const ProgressFn& progress, std::string* error) {
+  LogReader reader;
+  if (!reader.open(path, error)) return false;
+  const std::int64_t total = file_bytes(path);
+  std::int64_t done = 0;
+  LogEvent ev;
+  pose_t pose_msg;
+  while (reader.next(&ev)) {
+    ++stats->events;
+    done += kEventHeaderBytes + static_cast<std::int64_t>(ev.channel.size() + ev.data.size());
+    if (progress && (stats->events % 64) == 0) progress(done, total);
+    if (ev.channel == ch.scan) {
+      std::int64_t u = 0;
+      if (!scan_utime(ev, &u)) {
+        ++stats->malformed;
+        continue;
+      }
+      input->scan_utimes.push_back(u);
+      ++stats->scans;
+    } else if (ev.channel == ch.ground_truth || ev.channel == ch.odometry) {
+      StampedPose p;
+      std::string why;
+      if (!LogReader::decode(ev, &pose_msg) || !from_message(pose_msg, &p, &why)) {
+        ++stats->malformed;
+        continue;
+      }
+      if (ev.channel == ch.ground_truth) {
+        input->ground_truth.push_back(p);
+        ++stats->ground_truth;
+      } else {
+        input->odometry.push_back(p);
+        ++stats->odometry;
+      }
+    } else {
+      ++stats->skipped;
+    }
+  }
+  if (progress) progress(total, total);
+  if (stats->ground_truth == 0) {
+    if (error) *error = "drive log " + path + " has no '" + ch.ground_truth + "' poses";
+    return false;
+  }
+  if (stats->odometry == 0) {
+    if (error) *error = "drive log " + path + " has no '" + ch.odometry + "' poses";
+    return false;
+  }
+  return true;
+}
+
+bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput* input, LogReadStats* stats,
+                      const ProgressFn& progress, std::string* error) {
+  LogReader reader;
+  if (!reader.open(path, error)) return false;
+  const std::int64_t total = file_bytes(path);
+  std::int64_t done = 0;
+  LogEvent ev;
+  loop_event_t loop_msg;
+  trajectory_t traj_msg;
+  trajectory_t last;
+  bool have_last = false;
+  while (reader.next(&ev)) {
+    ++stats->events;
+    done += kEventHeaderBytes + static_cast<std::int64_t>(ev.channel.size() + ev.data.size());
+    if (progress && (stats->events % 64) == 0) progress(done, total);
+    if (ev.channel == ch.loop_event) {
+      if (!LogReader::decode(ev, &loop_msg)) {
+        ++stats->malformed;
+        continue;
+      }
+      LoopRecord r;
+      r.event_id = loop_msg.event_id;
+      r.query_utime = loop_msg.query_utime;
+      r.match_utime = loop_msg.match_utime;
+      r.status = loop_msg.status == loop_event_t::STATUS_ACCEPTED   ? LoopStatus::kAccepted
+                 : loop_msg.status == loop_event_t::STATUS_REJECTED ? LoopStatus::kRejected
+                                                                    : LoopStatus::kCandidate;
+      r.stage = loop_msg.stage;
+      r.descriptor_distance = loop_msg.descriptor_distance;
+      r.T_match_query = from_row_major(loop_msg.T_match_query);
+      r.ms_descriptor = loop_msg.ms_descriptor;
+      r.ms_fourpcs = loop_msg.ms_fourpcs;
+      r.ms_gicp = loop_msg.ms_gicp;
+      r.ms_hungarian = loop_msg.ms_hungarian;
+      r.ms_total = loop_msg.ms_total;
+      input->loops.push_back(r);
+      ++stats->loop_events;
+    } else if (ev.channel == ch.trajectory) {
+      if (!LogReader::decode(ev, &traj_msg)) {
+        ++stats->malformed;
+        continue;
+      }
+      ++stats->trajectories;
+      // The LAST revision is the corrected trajectory (revisions increase with every correction).
+      if (!have_last || traj_msg.revision >= last.revision) {
+        last = traj_msg;
+        have_last = true;
+      }
+    } else {
+      ++stats->skipped;
+    }
+  }
+  if (progress) progress(total, total);
+  if (have_last) {
+    stats->trajectory_revision = last.revision;
+    input->corrected.clear();
+    for (const auto& k : last.keyframes) {
+      KeyframePose kp;
+      kp.utime = k.utime;
+      kp.T_map_sensor = make_isometry(k.position, k.orientation);
+      input->corrected.push_back(kp);
+    }
+    input->T_map_odom = from_row_major(last.T_map_odom);
+  }
+  return true;
+}
+
+}  // namespace loopd::tools
