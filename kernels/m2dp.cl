@@ -1,0 +1,164 @@
+// M2DP descriptor kernels (He et al. 2016; Vlaminck et al. 2019, Sec. 4.1).
+//
+// The host prepends the text of m2dp_shared.h and defines M2DP_L (rings), M2DP_T (sectors, even)
+// and M2DP_NPLANES (p * q). Shaped for PoCL on a CPU as much as for a GPU (see
+// shared/notes/opencl-on-pocl.md): one work-item per chunk of points (and per plane for the
+// binning), bins found by comparisons instead of atan2/sqrt, no atomics, and the per-point work
+// in plain loops over contiguous arrays that the compiler can vectorise.
+
+#define M2DP_LT (M2DP_L * M2DP_T)
+#define M2DP_HALF_T (M2DP_T / 2)
+
+// Pass 1 (reduction): shifts the points by `shift` (float precision), converts them from xyz
+// triplets to three contiguous arrays, and writes per-chunk sums for the centroid and covariance.
+__kernel void m2dp_moments(__global const float* xyz, const int n, const float sx, const float sy, const float sz,
+                           __global float* xs, __global float* ys, __global float* zs, __global float* moments) {
+  const int chunk = (int)get_global_id(0);
+  const int begin = chunk * M2DP_CHUNK;
+  const int end = min(n, begin + M2DP_CHUNK);
+  float s_x = 0.0f, s_y = 0.0f, s_z = 0.0f;
+  float s_xx = 0.0f, s_xy = 0.0f, s_xz = 0.0f, s_yy = 0.0f, s_yz = 0.0f, s_zz = 0.0f;
+  for (int i = begin; i < end; ++i) {
+    const float x = xyz[3 * i] - sx, y = xyz[3 * i + 1] - sy, z = xyz[3 * i + 2] - sz;
+    xs[i] = x;
+    ys[i] = y;
+    zs[i] = z;
+    s_x += x;
+    s_y += y;
+    s_z += z;
+    s_xx += x * x;
+    s_xy += x * y;
+    s_xz += x * z;
+    s_yy += y * y;
+    s_yz += y * z;
+    s_zz += z * z;
+  }
+  __global float* m = moments + chunk * M2DP_MOMENT_STRIDE;
+  m[0] = (float)(end - begin);
+  m[1] = s_x;
+  m[2] = s_y;
+  m[3] = s_z;
+  m[4] = s_xx;
+  m[5] = s_xy;
+  m[6] = s_xz;
+  m[7] = s_yy;
+  m[8] = s_yz;
+  m[9] = s_zz;
+  m[10] = 0.0f;
+  m[11] = 0.0f;
+}
+
+// Pass 2 (reduction): per chunk, the largest squared distance to the centroid c (the outer ring
+// radius), the third moments along the frame axes a0, a1, a2 (for their canonical signs) and the
+// centred second moments in that frame (accurate degeneracy checks: coincident, collinear).
+// axes = {a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z} (host computes them from pass 1).
+__kernel void m2dp_extent(__global const float* xs, __global const float* ys, __global const float* zs, const int n,
+                          __constant float* frame /* cx, cy, cz, then 9 axis components */, __global float* extent) {
+  const int chunk = (int)get_global_id(0);
+  const int begin = chunk * M2DP_CHUNK;
+  const int end = min(n, begin + M2DP_CHUNK);
+  const float cx = frame[0], cy = frame[1], cz = frame[2];
+  const float a0x = frame[3], a0y = frame[4], a0z = frame[5];
+  const float a1x = frame[6], a1y = frame[7], a1z = frame[8];
+  const float a2x = frame[9], a2y = frame[10], a2z = frame[11];
+  float max_r2 = 0.0f, m0 = 0.0f, m1 = 0.0f, m2 = 0.0f;
+  float s00 = 0.0f, s01 = 0.0f, s02 = 0.0f, s11 = 0.0f, s12 = 0.0f, s22 = 0.0f;
+  for (int i = begin; i < end; ++i) {
+    const float x = xs[i] - cx, y = ys[i] - cy, z = zs[i] - cz;
+    max_r2 = fmax(max_r2, x * x + y * y + z * z);
+    const float t0 = a0x * x + a0y * y + a0z * z;
+    const float t1 = a1x * x + a1y * y + a1z * z;
+    const float t2 = a2x * x + a2y * y + a2z * z;
+    m0 += t0 * t0 * t0;
+    m1 += t1 * t1 * t1;
+    m2 += t2 * t2 * t2;
+    s00 += t0 * t0;
+    s01 += t0 * t1;
+    s02 += t0 * t2;
+    s11 += t1 * t1;
+    s12 += t1 * t2;
+    s22 += t2 * t2;
+  }
+  __global float* e = extent + chunk * M2DP_EXTENT_STRIDE;
+  e[0] = max_r2;
+  e[1] = m0;
+  e[2] = m1;
+  e[3] = m2;
+  e[4] = s00;
+  e[5] = s01;
+  e[6] = s02;
+  e[7] = s11;
+  e[8] = s12;
+  e[9] = s22;
+  e[10] = 0.0f;
+  e[11] = 0.0f;
+}
+
+// Pass 3: projection and binning of all p*q planes in one launch; global size (chunks, planes).
+// Vlaminck 2019 Sec. 4.1: a point projects onto plane X_j at (u, v) = (e1.p, e2.p) relative to the
+// projected centroid; rings have outer radii k^2 r (k = 1..l, l^2 r = farthest point) and each ring
+// has t sectors over (-pi, pi]. Ring: count of squared edges (k^2 r)^2 <= u^2 + v^2. Sector: the
+// half plane from the sign of v, then the count of sector boundaries alpha_k (k = 1..t/2-1) the
+// direction has passed, by the sign of the cross product (cos alpha_k, sin alpha_k) x (u, v).
+// bin_params = {(k^2 r)^2 for k = 1..l-1, then cos alpha_k, sin alpha_k for k = 1..t/2-1}.
+// partial[(chunk * planes + plane) * l*t + ring * t + sector] = count.
+__kernel void m2dp_bin(__global const float* xs, __global const float* ys, __global const float* zs, const int n,
+                       __global const float* planes, __constant float* bin_params, __global uint* partial) {
+  const int chunk = (int)get_global_id(0);
+  const int plane = (int)get_global_id(1);
+  const int begin = chunk * M2DP_CHUNK;
+  const int end = min(n, begin + M2DP_CHUNK);
+  __global const float* pl = planes + plane * M2DP_PLANE_STRIDE;
+  const float e1x = pl[0], e1y = pl[1], e1z = pl[2], d1 = pl[3];
+  const float e2x = pl[4], e2y = pl[5], e2z = pl[6], d2 = pl[7];
+  float edge2[M2DP_L];
+  for (int k = 0; k < M2DP_L - 1; ++k) edge2[k] = bin_params[k];
+  float cs[M2DP_HALF_T], sn[M2DP_HALF_T];
+  for (int k = 0; k < M2DP_HALF_T - 1; ++k) {
+    cs[k] = bin_params[M2DP_L - 1 + 2 * k];
+    sn[k] = bin_params[M2DP_L - 1 + 2 * k + 1];
+  }
+
+  // Four interleaved histograms so that consecutive increments of one bin do not wait on each other.
+  uint hist[4][M2DP_LT];
+  for (int b = 0; b < M2DP_LT; ++b) hist[0][b] = hist[1][b] = hist[2][b] = hist[3][b] = 0u;
+  uchar bins[M2DP_SUBBLOCK];
+
+  for (int base = begin; base < end; base += M2DP_SUBBLOCK) {
+    const int m = min(M2DP_SUBBLOCK, end - base);
+    // Compute loop: independent per point, no memory conflicts (vectorisable).
+    for (int i = 0; i < m; ++i) {
+      const float x = xs[base + i], y = ys[base + i], z = zs[base + i];
+      const float u = e1x * x + e1y * y + e1z * z + d1;
+      const float v = e2x * x + e2y * y + e2z * z + d2;
+      const float r2 = u * u + v * v;
+      int ring = 0;
+      for (int k = 0; k < M2DP_L - 1; ++k) ring += (r2 >= edge2[k]) ? 1 : 0;
+      const int lower = (v < 0.0f) ? 1 : 0;
+      const float su = lower ? -u : u;
+      const float sv = lower ? -v : v;
+      int sector = lower ? 0 : M2DP_HALF_T;
+      for (int k = 0; k < M2DP_HALF_T - 1; ++k) sector += (sv * cs[k] - su * sn[k] >= 0.0f) ? 1 : 0;
+      bins[i] = (uchar)(ring * M2DP_T + sector);
+    }
+    // Counting loop.
+    int i = 0;
+    for (; i + 4 <= m; i += 4) {
+      hist[0][bins[i]]++;
+      hist[1][bins[i + 1]]++;
+      hist[2][bins[i + 2]]++;
+      hist[3][bins[i + 3]]++;
+    }
+    for (; i < m; ++i) hist[0][bins[i]]++;
+  }
+  __global uint* out = partial + (chunk * M2DP_NPLANES + plane) * M2DP_LT;
+  for (int b = 0; b < M2DP_LT; ++b) out[b] = hist[0][b] + hist[1][b] + hist[2][b] + hist[3][b];
+}
+
+// Pass 4: the signature matrix A (planes x l*t) as the sum of the per-chunk partial histograms.
+__kernel void m2dp_reduce(__global const uint* partial, const int num_chunks, __global uint* signature) {
+  const int g = (int)get_global_id(0);
+  uint s = 0u;
+  for (int c = 0; c < num_chunks; ++c) s += partial[c * (M2DP_NPLANES * M2DP_LT) + g];
+  signature[g] = s;
+}

@@ -1,0 +1,36 @@
+/* Constants shared by the M2DP host code (src/loopd/descriptor) and kernels/m2dp.cl.
+ * Plain C preprocessor only: the host includes this file, and the OpenCL backend prepends its
+ * text to m2dp.cl before building the program. Per-config sizes (l, t) are passed to the
+ * kernel compiler as -D M2DP_L=.. -D M2DP_T=.. so the binning loops unroll. */
+#ifndef LOOPD_M2DP_SHARED_H
+#define LOOPD_M2DP_SHARED_H
+
+/* Points per work-item (chunk) in the moment, extent and binning kernels. Large enough that the
+ * per-chunk partial histograms stay small (ceil(N / chunk) x planes x bins), small enough to give
+ * both cores many independent work-items (120k points -> 15 chunks x 64 planes = 960). */
+#define M2DP_CHUNK 8192
+
+/* Points binned at once inside a binning work-item: the bin bytes of one sub-block stay in L1
+ * between the vectorised compute loop and the counting loop (pocl notes: fused passes in cache). */
+#define M2DP_SUBBLOCK 512
+
+/* Floats per projection plane in the plane table: e1 (3), -c.e1, e2 (3), -c.e2, where e1, e2 are
+ * the in-plane axes expressed in the input (sensor) frame and c the centroid, so a point p
+ * projects to u = e1.p - c.e1, v = e2.p - c.e2 without a separate centring pass. */
+#define M2DP_PLANE_STRIDE 8
+
+/* Floats per chunk written by the moments kernel: count, sum x, y, z, sum xx, xy, xz, yy, yz, zz
+ * (of the shifted coordinates), padded. */
+#define M2DP_MOMENT_STRIDE 12
+
+/* Floats per chunk written by the extent kernel: max squared distance to the centroid, sums of
+ * the cubed coordinates along the three frame axes (third moments, for the axis signs), then the
+ * centred second moments t0t0, t0t1, t0t2, t1t1, t1t2, t2t2 (degeneracy checks), padded. */
+#define M2DP_EXTENT_STRIDE 12
+
+/* Upper bounds that keep the private histogram of a binning work-item small. */
+#define M2DP_MAX_RINGS 32
+#define M2DP_MAX_SECTORS 64
+#define M2DP_MAX_BINS 256
+
+#endif

@@ -1,0 +1,93 @@
+#pragma once
+// Private to loopd_descriptor: the steps both M2DP backends share (frame from moments, plane table,
+// bin edges, singular vectors), so that the CPU reference and the OpenCL host differ only in where
+// the reductions and the binning run.
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "loopd/descriptor/m2dp.hpp"
+
+namespace loopd::detail {
+
+/// First-pass result: centroid and covariance (any shift already removed from the centroid by the caller).
+struct FirstMoments {
+  double count = 0;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< in the coordinates the caller binned in
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+};
+
+/// Second-pass result, computed about the centroid in the (unsigned) frame axes.
+struct SecondMoments {
+  double max_r2 = 0;                                    ///< [m^2] farthest point from the centroid, squared
+  Eigen::Vector3d third = Eigen::Vector3d::Zero();      ///< sum of (a_k . q)^3 per axis
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();     ///< sum of (a_j . q)(a_k . q), centred (accurate)
+};
+
+/// Axes (rows) of the frame before the sign rule: PCA of the covariance, or z-up + 2-D PCA in the ground plane.
+Eigen::Matrix3d frame_axes(const FirstMoments& m, M2dpFrame frame);
+
+/// Checks the first pass; empty when fine, else the error text (too few points, non-finite coordinates).
+std::string check_first(const FirstMoments& m);
+/// Checks the second pass (all points equal, collinear); empty when fine.
+std::string check_second(const SecondMoments& s);
+
+/// Canonical axis signs (third moment rule): x flipped so that its third moment is >= 0; for kPca z likewise;
+/// y = z cross x (right-handed). For kGravityAligned z stays (0, 0, 1).
+Eigen::Matrix3d signed_axes(const Eigen::Matrix3d& axes, const SecondMoments& s, M2dpFrame frame);
+
+/// Plane table: M2DP_PLANE_STRIDE floats per plane (e1, -c.e1, e2, -c.e2), in the binning coordinates.
+/// Plane (i, j), row i * q + j: azimuth theta_i = -pi/2 + i pi/p, elevation phi_j = j pi/(2q),
+/// normal n = (cos phi cos theta, cos phi sin theta, sin phi) in the frame (He 2016; Vlaminck 2019 Sec. 4.1).
+std::vector<float> plane_table(const M2dpConfig& config, const Eigen::Matrix3d& axes, const Eigen::Vector3d& centroid);
+
+/// Bin parameters: squared ring edges (k^2 r)^2, k = 1..l-1 with l^2 r = max radius; then cos, sin of the sector
+/// boundaries alpha_k = k 2 pi / t, k = 1..t/2-1.
+std::vector<float> bin_params(const M2dpConfig& config, double max_r2);
+
+/// Bin of one projected point (ring * t + sector), by comparisons; the same arithmetic as kernels/m2dp.cl.
+inline int bin_of(float u, float v, const float* params, int l, int t) {
+  const float r2 = u * u + v * v;
+  int ring = 0;
+  for (int k = 0; k < l - 1; ++k) ring += (r2 >= params[k]) ? 1 : 0;
+  const bool lower = v < 0.0f;
+  const float su = lower ? -u : u, sv = lower ? -v : v;
+  int sector = lower ? 0 : t / 2;
+  const float* cs = params + (l - 1);
+  for (int k = 0; k < t / 2 - 1; ++k) sector += (sv * cs[2 * k] - su * cs[2 * k + 1] >= 0.0f) ? 1 : 0;
+  return ring * t + sector;
+}
+
+/// First left and right singular vectors of the signature matrix A (rows = planes, row-major), by power
+/// iteration on A^T A from a positive start (A >= 0, so both vectors come out non-negative: the canonical sign).
+/// Fills result->descriptor (u then v) and ok; error when A is all zero.
+void descriptor_from_signature(const std::vector<std::uint32_t>& signature, const M2dpConfig& config, M2dpResult* result);
+
+/// Points after the max_points stride rule (a copy only when subsampling).
+const std::vector<Eigen::Vector3f>& subsample(const std::vector<Eigen::Vector3f>& points, int max_points,
+                                              std::vector<Eigen::Vector3f>* storage);
+
+/// CPU reference backend.
+M2dpResult compute_m2dp_cpu(const std::vector<Eigen::Vector3f>& points, const M2dpConfig& config);
+
+/// OpenCL backend (m2dp_opencl.cpp). Construction fails softly: check error() afterwards.
+class M2dpOpenCl {
+ public:
+  explicit M2dpOpenCl(const M2dpConfig& config);
+  ~M2dpOpenCl();
+  bool ok() const { return error_.empty(); }
+  const std::string& error() const { return error_; }
+  const std::string& device_name() const { return device_name_; }
+  M2dpResult compute(const std::vector<Eigen::Vector3f>& points);
+
+ private:
+  struct State;
+  M2dpConfig config_;
+  std::string error_;
+  std::string device_name_;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace loopd::detail

@@ -1,0 +1,294 @@
+// M2DP OpenCL backend, host side (kernels in kernels/m2dp.cl). One program built at construction,
+// buffers kept and grown across scans, one in-order queue guarded by a mutex (thread-safe compute()).
+// Per scan: upload, moments kernel -> 3x3 frame on the host, extent kernel -> ring radius and axis
+// signs, binning kernel over all planes and chunks, reduce kernel, one read of the 64 x 128 matrix.
+#ifdef LOOPD_WITH_OPENCL
+#include <CL/cl.h>
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <mutex>
+
+#include "../../../kernels/m2dp_shared.h"
+#include "loopd/descriptor/m2dp_internal.hpp"
+#include "loopd/opencl/kernel_sources.hpp"
+#include "loopd/opencl/opencl_device.hpp"
+
+namespace loopd::detail {
+
+namespace {
+
+struct Buffer {
+  cl_mem mem = nullptr;
+  std::size_t bytes = 0;
+};
+
+}  // namespace
+
+struct M2dpOpenCl::State {
+  std::mutex mutex;
+  cl_context context = nullptr;
+  cl_command_queue queue = nullptr;
+  cl_program program = nullptr;
+  cl_kernel k_moments = nullptr, k_extent = nullptr, k_bin = nullptr, k_reduce = nullptr;
+  Buffer xyz, xs, ys, zs, moments, extent, frame, planes, params, partial, signature;
+  std::vector<float> host_moments, host_extent;
+  std::vector<std::uint32_t> host_signature;
+
+  ~State() {
+    for (Buffer* b : {&xyz, &xs, &ys, &zs, &moments, &extent, &frame, &planes, &params, &partial, &signature})
+      if (b->mem) clReleaseMemObject(b->mem);
+    for (cl_kernel k : {k_moments, k_extent, k_bin, k_reduce})
+      if (k) clReleaseKernel(k);
+    if (program) clReleaseProgram(program);
+    if (queue) clReleaseCommandQueue(queue);
+    if (context) clReleaseContext(context);
+  }
+
+  /// Grows `b` to at least `bytes` (never shrinks, so steady-state scans allocate nothing).
+  cl_int ensure(Buffer& b, std::size_t bytes, cl_mem_flags flags) {
+    if (b.bytes >= bytes && b.mem) return CL_SUCCESS;
+    if (b.mem) clReleaseMemObject(b.mem);
+    const std::size_t alloc = std::max<std::size_t>(bytes + bytes / 4, 64);
+    cl_int err = CL_SUCCESS;
+    b.mem = clCreateBuffer(context, flags, alloc, nullptr, &err);
+    b.bytes = err == CL_SUCCESS ? alloc : 0;
+    return err;
+  }
+};
+
+namespace {
+template <typename T>
+cl_int set_arg(cl_kernel k, cl_uint i, const T& v) {
+  return clSetKernelArg(k, i, sizeof(T), &v);
+}
+}  // namespace
+
+M2dpOpenCl::M2dpOpenCl(const M2dpConfig& config) : config_(config), state_(std::make_unique<State>()) {
+  OpenClDeviceInfo device;
+  if (!pick_opencl_device(config.opencl_device, &device, &error_)) return;
+  device_name_ = device.name + " (" + device.platform + ")";
+  cl_device_id id = static_cast<cl_device_id>(device.id);
+  cl_int err = CL_SUCCESS;
+  State& s = *state_;
+  s.context = clCreateContext(nullptr, 1, &id, nullptr, nullptr, &err);
+  if (err != CL_SUCCESS) {
+    error_ = "clCreateContext: " + opencl_error_string(err);
+    return;
+  }
+  s.queue = clCreateCommandQueue(s.context, id, 0, &err);
+  if (err != CL_SUCCESS) {
+    error_ = "clCreateCommandQueue: " + opencl_error_string(err);
+    return;
+  }
+  // m2dp_shared.h is prepended (no include paths at run time); l, t and p*q become compile-time constants.
+  const std::string source = kernel_source("m2dp_shared.h") + "\n" + kernel_source("m2dp.cl");
+  if (source.size() < 100) {
+    error_ = "kernel sources m2dp_shared.h / m2dp.cl were not embedded";
+    return;
+  }
+  const char* text = source.c_str();
+  const std::size_t length = source.size();
+  s.program = clCreateProgramWithSource(s.context, 1, &text, &length, &err);
+  if (err != CL_SUCCESS) {
+    error_ = "clCreateProgramWithSource: " + opencl_error_string(err);
+    return;
+  }
+  const std::string options = "-cl-std=CL1.2 -cl-mad-enable -D M2DP_L=" + std::to_string(config.num_rings_l) +
+                              " -D M2DP_T=" + std::to_string(config.num_sectors_t) + " -D M2DP_NPLANES=" + std::to_string(config.num_planes());
+  err = clBuildProgram(s.program, 1, &id, options.c_str(), nullptr, nullptr);
+  if (err != CL_SUCCESS) {
+    std::size_t n = 0;
+    clGetProgramBuildInfo(s.program, id, CL_PROGRAM_BUILD_LOG, 0, nullptr, &n);
+    std::string log(n, '\0');
+    clGetProgramBuildInfo(s.program, id, CL_PROGRAM_BUILD_LOG, n, log.data(), nullptr);
+    error_ = "clBuildProgram: " + opencl_error_string(err) + ": " + log.substr(0, 2000);
+    return;
+  }
+  const std::pair<cl_kernel*, const char*> kernels[] = {
+      {&s.k_moments, "m2dp_moments"}, {&s.k_extent, "m2dp_extent"}, {&s.k_bin, "m2dp_bin"}, {&s.k_reduce, "m2dp_reduce"}};
+  for (const auto& [k, name] : kernels) {
+    *k = clCreateKernel(s.program, name, &err);
+    if (err != CL_SUCCESS) {
+      error_ = std::string("clCreateKernel ") + name + ": " + opencl_error_string(err);
+      return;
+    }
+  }
+  const std::size_t num_planes = static_cast<std::size_t>(config.num_planes()), num_bins = static_cast<std::size_t>(config.num_bins());
+  if ((err = s.ensure(s.frame, 12 * sizeof(float), CL_MEM_READ_ONLY)) != CL_SUCCESS ||
+      (err = s.ensure(s.planes, num_planes * M2DP_PLANE_STRIDE * sizeof(float), CL_MEM_READ_ONLY)) != CL_SUCCESS ||
+      (err = s.ensure(s.params, (M2DP_MAX_RINGS + M2DP_MAX_SECTORS) * sizeof(float), CL_MEM_READ_ONLY)) != CL_SUCCESS ||
+      (err = s.ensure(s.signature, num_planes * num_bins * sizeof(std::uint32_t), CL_MEM_WRITE_ONLY)) != CL_SUCCESS) {
+    error_ = "clCreateBuffer: " + opencl_error_string(err);
+    return;
+  }
+}
+
+M2dpOpenCl::~M2dpOpenCl() = default;
+
+M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
+  M2dpResult result;
+  result.backend = Backend::kOpenCl;
+  result.num_points = static_cast<int>(std::min<std::size_t>(points.size(), INT_MAX));
+  if (points.size() < 3) {
+    result.error = check_first(FirstMoments{static_cast<double>(points.size())});
+    return result;
+  }
+  if (points.size() > static_cast<std::size_t>(INT_MAX / 3)) {
+    result.error = "too many points for the OpenCL backend";
+    return result;
+  }
+  std::lock_guard<std::mutex> lock(state_->mutex);
+  State& s = *state_;
+  auto fail = [&](const char* what, cl_int err) {
+    result.ok = false;
+    result.error = std::string("OpenCL ") + what + ": " + opencl_error_string(err);
+    result.descriptor.resize(0);
+    return result;
+  };
+  const int n = static_cast<int>(points.size());
+  const int num_chunks = (n + M2DP_CHUNK - 1) / M2DP_CHUNK;
+  const std::size_t num_planes = static_cast<std::size_t>(config_.num_planes()), num_bins = static_cast<std::size_t>(config_.num_bins());
+  cl_int err = CL_SUCCESS;
+  if ((err = s.ensure(s.xyz, static_cast<std::size_t>(n) * 3 * sizeof(float), CL_MEM_READ_ONLY)) != CL_SUCCESS ||
+      (err = s.ensure(s.xs, static_cast<std::size_t>(n) * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
+      (err = s.ensure(s.ys, static_cast<std::size_t>(n) * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
+      (err = s.ensure(s.zs, static_cast<std::size_t>(n) * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
+      (err = s.ensure(s.moments, static_cast<std::size_t>(num_chunks) * M2DP_MOMENT_STRIDE * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
+      (err = s.ensure(s.extent, static_cast<std::size_t>(num_chunks) * M2DP_EXTENT_STRIDE * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
+      (err = s.ensure(s.partial, static_cast<std::size_t>(num_chunks) * num_planes * num_bins * sizeof(std::uint32_t), CL_MEM_READ_WRITE)) !=
+          CL_SUCCESS)
+    return fail("buffer", err);
+
+  // Shift by the first point so that float sums in the kernel stay accurate far from the origin.
+  Eigen::Vector3f shift = points.front();
+  if (!shift.allFinite()) shift.setZero();
+  const std::size_t one = 1;
+  const std::size_t chunks = static_cast<std::size_t>(num_chunks);
+
+  // Pass 1: moments (reduction per chunk), combined in double on the host.
+  if ((err = clEnqueueWriteBuffer(s.queue, s.xyz.mem, CL_FALSE, 0, static_cast<std::size_t>(n) * 3 * sizeof(float), points.data(), 0, nullptr,
+                                  nullptr)) != CL_SUCCESS)
+    return fail("upload", err);
+  set_arg(s.k_moments, 0, s.xyz.mem);
+  set_arg(s.k_moments, 1, n);
+  set_arg(s.k_moments, 2, shift.x());
+  set_arg(s.k_moments, 3, shift.y());
+  set_arg(s.k_moments, 4, shift.z());
+  set_arg(s.k_moments, 5, s.xs.mem);
+  set_arg(s.k_moments, 6, s.ys.mem);
+  set_arg(s.k_moments, 7, s.zs.mem);
+  set_arg(s.k_moments, 8, s.moments.mem);
+  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_moments, 1, nullptr, &chunks, &one, 0, nullptr, nullptr)) != CL_SUCCESS) return fail("m2dp_moments", err);
+  s.host_moments.resize(chunks * M2DP_MOMENT_STRIDE);
+  if ((err = clEnqueueReadBuffer(s.queue, s.moments.mem, CL_TRUE, 0, s.host_moments.size() * sizeof(float), s.host_moments.data(), 0, nullptr,
+                                 nullptr)) != CL_SUCCESS)
+    return fail("read moments", err);
+  double count = 0;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d sum_sq = Eigen::Matrix3d::Zero();
+  for (std::size_t c = 0; c < chunks; ++c) {
+    const float* m = s.host_moments.data() + c * M2DP_MOMENT_STRIDE;
+    count += m[0];
+    sum += Eigen::Vector3d(m[1], m[2], m[3]);
+    sum_sq(0, 0) += m[4];
+    sum_sq(0, 1) += m[5];
+    sum_sq(0, 2) += m[6];
+    sum_sq(1, 1) += m[7];
+    sum_sq(1, 2) += m[8];
+    sum_sq(2, 2) += m[9];
+  }
+  sum_sq(1, 0) = sum_sq(0, 1);
+  sum_sq(2, 0) = sum_sq(0, 2);
+  sum_sq(2, 1) = sum_sq(1, 2);
+  FirstMoments first;
+  first.count = count;
+  first.centroid = sum / count;  // shifted coordinates
+  first.covariance = sum_sq / count - first.centroid * first.centroid.transpose();
+  if (std::string e = check_first(first); !e.empty()) {
+    result.error = e;
+    return result;
+  }
+  const Eigen::Matrix3d unsigned_axes = frame_axes(first, config_.frame);
+
+  // Pass 2: extent and third moments about the centroid.
+  float frame[12];
+  for (int i = 0; i < 3; ++i) frame[i] = static_cast<float>(first.centroid(i));
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) frame[3 + 3 * r + c] = static_cast<float>(unsigned_axes(r, c));
+  if ((err = clEnqueueWriteBuffer(s.queue, s.frame.mem, CL_FALSE, 0, sizeof(frame), frame, 0, nullptr, nullptr)) != CL_SUCCESS)
+    return fail("upload frame", err);
+  set_arg(s.k_extent, 0, s.xs.mem);
+  set_arg(s.k_extent, 1, s.ys.mem);
+  set_arg(s.k_extent, 2, s.zs.mem);
+  set_arg(s.k_extent, 3, n);
+  set_arg(s.k_extent, 4, s.frame.mem);
+  set_arg(s.k_extent, 5, s.extent.mem);
+  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_extent, 1, nullptr, &chunks, &one, 0, nullptr, nullptr)) != CL_SUCCESS) return fail("m2dp_extent", err);
+  s.host_extent.resize(chunks * M2DP_EXTENT_STRIDE);
+  if ((err = clEnqueueReadBuffer(s.queue, s.extent.mem, CL_TRUE, 0, s.host_extent.size() * sizeof(float), s.host_extent.data(), 0, nullptr,
+                                 nullptr)) != CL_SUCCESS)
+    return fail("read extent", err);
+  SecondMoments second;
+  for (std::size_t c = 0; c < chunks; ++c) {
+    const float* e = s.host_extent.data() + c * M2DP_EXTENT_STRIDE;
+    second.max_r2 = std::max(second.max_r2, static_cast<double>(e[0]));
+    if (!std::isfinite(e[0])) second.max_r2 = e[0];
+    second.third += Eigen::Vector3d(e[1], e[2], e[3]);
+    second.second(0, 0) += e[4];
+    second.second(0, 1) += e[5];
+    second.second(0, 2) += e[6];
+    second.second(1, 1) += e[7];
+    second.second(1, 2) += e[8];
+    second.second(2, 2) += e[9];
+  }
+  second.second(1, 0) = second.second(0, 1);
+  second.second(2, 0) = second.second(0, 2);
+  second.second(2, 1) = second.second(1, 2);
+  if (std::string e = check_second(second); !e.empty()) {
+    result.error = e;
+    return result;
+  }
+  const Eigen::Matrix3d axes = signed_axes(unsigned_axes, second, config_.frame);
+  result.axes = axes;
+  result.centroid = first.centroid + shift.cast<double>();
+  result.max_radius = std::sqrt(second.max_r2);
+
+  // Pass 3: all planes x all chunks in one launch, then the per-chunk histograms summed on the device.
+  const std::vector<float> planes = plane_table(config_, axes, first.centroid);
+  const std::vector<float> params = bin_params(config_, second.max_r2);
+  if ((err = clEnqueueWriteBuffer(s.queue, s.planes.mem, CL_FALSE, 0, planes.size() * sizeof(float), planes.data(), 0, nullptr, nullptr)) !=
+          CL_SUCCESS ||
+      (err = clEnqueueWriteBuffer(s.queue, s.params.mem, CL_FALSE, 0, params.size() * sizeof(float), params.data(), 0, nullptr, nullptr)) !=
+          CL_SUCCESS)
+    return fail("upload planes", err);
+  set_arg(s.k_bin, 0, s.xs.mem);
+  set_arg(s.k_bin, 1, s.ys.mem);
+  set_arg(s.k_bin, 2, s.zs.mem);
+  set_arg(s.k_bin, 3, n);
+  set_arg(s.k_bin, 4, s.planes.mem);
+  set_arg(s.k_bin, 5, s.params.mem);
+  set_arg(s.k_bin, 6, s.partial.mem);
+  const std::size_t bin_global[2] = {chunks, num_planes};
+  const std::size_t bin_local[2] = {1, 1};
+  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_bin, 2, nullptr, bin_global, bin_local, 0, nullptr, nullptr)) != CL_SUCCESS)
+    return fail("m2dp_bin", err);
+  const int chunks_arg = num_chunks;
+  set_arg(s.k_reduce, 0, s.partial.mem);
+  set_arg(s.k_reduce, 1, chunks_arg);
+  set_arg(s.k_reduce, 2, s.signature.mem);
+  const std::size_t reduce_global = num_planes * num_bins;
+  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_reduce, 1, nullptr, &reduce_global, nullptr, 0, nullptr, nullptr)) != CL_SUCCESS)
+    return fail("m2dp_reduce", err);
+  s.host_signature.resize(num_planes * num_bins);
+  if ((err = clEnqueueReadBuffer(s.queue, s.signature.mem, CL_TRUE, 0, s.host_signature.size() * sizeof(std::uint32_t), s.host_signature.data(),
+                                 0, nullptr, nullptr)) != CL_SUCCESS)
+    return fail("read signature", err);
+
+  descriptor_from_signature(s.host_signature, config_, &result);
+  return result;
+}
+
+}  // namespace loopd::detail
+#endif  // LOOPD_WITH_OPENCL
