@@ -11,9 +11,9 @@ namespace loopd {
 ///        KITTI). Each ground-truth step is perturbed and the perturbed steps are chained.
 struct OdometryDriftConfig {
   std::uint64_t seed = 1;                ///< random seed (deterministic)
-  double heading_bias_deg_per_m = 0.02;  ///< [deg/m] yaw added per metre travelled (constant bias)
+  double heading_bias_deg_per_m = 0.005; ///< [deg/m] yaw added per metre travelled (constant bias)
   double scale_bias = 0.01;              ///< relative error of every step's length (0.01 = 1% too long)
-  double yaw_random_walk_deg = 0.02;     ///< [deg/sqrt(step)] std-dev of the yaw noise per step
+  double yaw_random_walk_deg = 0.01;     ///< [deg/sqrt(step)] std-dev of the yaw noise per step
   double translation_noise = 0.005;      ///< [m/sqrt(step)] std-dev of the translation noise per step
   double residual_base = 0.02;           ///< [m] residual reported for an unperturbed step
   double residual_gain = 1.0;            ///< residual += gain * size of the injected step error [m]

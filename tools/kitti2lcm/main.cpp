@@ -1,0 +1,182 @@
+// kitti2lcm: converts a KITTI odometry sequence into an lcm-logger drive log (scans in the lidar frame, ground
+// truth on GROUND_TRUTH_POSE, odometry on ODOMETRY_POSE from a file or from ground truth with injected drift).
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "lcm_log.hpp"
+#include "loopd/eval/odometry_drift.hpp"
+#include "loopd/eval/trajectory_io.hpp"
+#include "loopd/io/cloud_file.hpp"
+#include "message_convert.hpp"
+#include "tool_output.hpp"
+
+using namespace loopd;
+using namespace loopd::tools;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// The scan of a frame: NNNNNN.bin, else .pcd or .ply (any cloud format read_cloud_file reads).
+std::string scan_path(const std::string& velodyne_dir, std::size_t frame) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "%06zu", frame);
+  for (const char* ext : {".bin", ".pcd", ".ply"}) {
+    const std::string p = velodyne_dir + "/" + name + ext;
+    if (fs::exists(p)) return p;
+  }
+  return {};
+}
+
+pose_t pose_message(std::int64_t utime, std::int64_t seq, const Eigen::Isometry3d& T, double residual) {
+  StampedPose p;
+  p.utime = utime;
+  p.T_world_sensor = T;
+  p.residual = residual;
+  return to_message(p, seq);
+}
+
+int fail(const std::string& msg) {
+  std::cerr << "kitti2lcm: " << msg << "\n";
+  return 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"kitti2lcm: KITTI odometry sequence -> LCM drive log (LIDAR_SCAN, GROUND_TRUTH_POSE, ODOMETRY_POSE)"};
+  std::string sequence, poses_path, out, calib_path, times_path, odometry_path, frame = "velodyne";
+  std::int64_t max_frames = -1, utime_offset = 1000000;
+  double period = 0.0;
+  bool skip_missing = false, json = false, quiet = false;
+  OdometryDriftConfig drift;
+  std::string scan_channel = channels::kScan, gt_channel = channels::kGroundTruth, odom_channel = channels::kPose;
+  app.add_option("--sequence", sequence,
+                 "sequence folder: sequences/NN (scans in NN/velodyne/NNNNNN.bin) or a folder holding the scans")
+      ->required();
+  app.add_option("--poses", poses_path, "ground-truth poses poses/NN.txt (KITTI, camera frame)")->required();
+  app.add_option("--out", out, "output LCM log")->required();
+  app.add_option("--calib", calib_path, "calibration with the 'Tr:' line (default: SEQUENCE/calib.txt)");
+  app.add_option("--times", times_path, "timestamps [s], one a line (default: SEQUENCE/times.txt)");
+  app.add_option("--period", period, "[s] scan period when there is no times file (e.g. 0.1)");
+  app.add_option("--odometry", odometry_path, "odometry poses (KITTI format, camera frame) instead of injected drift");
+  app.add_option("--drift-seed", drift.seed, "seed of the injected odometry drift")->capture_default_str();
+  app.add_option("--heading-bias", drift.heading_bias_deg_per_m, "[deg/m] injected yaw bias")->capture_default_str();
+  app.add_option("--scale-bias", drift.scale_bias, "injected relative step-length error")->capture_default_str();
+  app.add_option("--yaw-walk", drift.yaw_random_walk_deg, "[deg/sqrt(step)] injected yaw random walk")->capture_default_str();
+  app.add_option("--translation-noise", drift.translation_noise, "[m/sqrt(step)] injected translation noise")
+      ->capture_default_str();
+  app.add_option("--residual-base", drift.residual_base, "[m] residual of an unperturbed step")->capture_default_str();
+  app.add_option("--max-frames", max_frames, "convert at most this many frames");
+  app.add_option("--utime-offset", utime_offset, "[us] added to times (utime = offset + time * 1e6)")->capture_default_str();
+  app.add_option("--frame", frame, "sensor frame name in point_cloud_t")->capture_default_str();
+  app.add_flag("--skip-missing-scans", skip_missing,
+               "frames without a scan file still get poses (default: a missing scan is an error)");
+  app.add_option("--scan-channel", scan_channel)->capture_default_str();
+  app.add_option("--ground-truth-channel", gt_channel)->capture_default_str();
+  app.add_option("--odometry-channel", odom_channel)->capture_default_str();
+  app.add_flag("--json", json, "print one JSON object as the last stdout line");
+  app.add_flag("--quiet", quiet, "no progress bar");
+  CLI11_PARSE(app, argc, argv);
+  if (auto e = drift.validate()) return fail(*e);
+
+  if (!fs::is_directory(sequence)) return fail("sequence folder " + sequence + " does not exist");
+  const std::string velodyne_dir = fs::is_directory(sequence + "/velodyne") ? sequence + "/velodyne" : sequence;
+  if (calib_path.empty()) calib_path = sequence + "/calib.txt";
+  std::string error;
+  Eigen::Isometry3d T_cam_velo;
+  if (!fs::exists(calib_path))
+    return fail("calibration file " + calib_path + " not found (give it with --calib)");
+  if (!read_kitti_calib_tr(calib_path, &T_cam_velo, &error)) return fail(error);
+  std::vector<Eigen::Isometry3d> cam_poses;
+  if (!read_kitti_poses(poses_path, &cam_poses, &error)) return fail(error);
+  const std::vector<Eigen::Isometry3d> gt = kitti_camera_to_lidar(cam_poses, T_cam_velo);
+
+  std::vector<double> times;
+  if (times_path.empty() && fs::exists(sequence + "/times.txt")) times_path = sequence + "/times.txt";
+  if (!times_path.empty()) {
+    if (!read_kitti_times(times_path, &times, &error)) return fail(error);
+    if (times.size() < gt.size())
+      return fail(times_path + " has " + std::to_string(times.size()) + " times but " + poses_path + " has " +
+                  std::to_string(gt.size()) + " poses");
+  } else if (period > 0.0) {
+    for (std::size_t i = 0; i < gt.size(); ++i) times.push_back(static_cast<double>(i) * period);
+  } else {
+    return fail("no times file (" + sequence + "/times.txt not found): give --times FILE or --period SECONDS");
+  }
+
+  std::size_t n = gt.size();
+  if (max_frames >= 0) n = std::min(n, static_cast<std::size_t>(max_frames));
+  if (n == 0) return fail("nothing to convert (--max-frames 0)");
+  std::vector<Eigen::Isometry3d> odom;
+  std::vector<double> residuals;
+  if (!odometry_path.empty()) {
+    std::vector<Eigen::Isometry3d> cam_odom;
+    if (!read_kitti_poses(odometry_path, &cam_odom, &error)) return fail(error);
+    if (cam_odom.size() < n)
+      return fail(odometry_path + " has " + std::to_string(cam_odom.size()) + " poses, fewer than the " +
+                  std::to_string(n) + " frames converted");
+    odom = kitti_camera_to_lidar(cam_odom, T_cam_velo);
+    residuals.assign(odom.size(), 0.0);
+  } else {
+    const std::vector<Eigen::Isometry3d> head(gt.begin(), gt.begin() + static_cast<long>(n));
+    OdometryDriftResult dr = inject_odometry_drift(head, drift);
+    odom = std::move(dr.poses);
+    residuals = std::move(dr.residuals);
+  }
+
+  LogWriter writer;
+  if (!writer.open(out, &error)) return fail(error);
+  Progress bar("kitti2lcm", static_cast<std::int64_t>(n), !quiet);
+  std::int64_t scans = 0, missing = 0, points = 0;
+  PointCloud cloud;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::int64_t utime = utime_offset + static_cast<std::int64_t>(std::llround(times[i] * 1e6));
+    const auto seq = static_cast<std::int64_t>(i);
+    if (!writer.write_message(gt_channel, utime, pose_message(utime, seq, gt[i], 0.0)) ||
+        !writer.write_message(odom_channel, utime, pose_message(utime, seq, odom[i], residuals[i])))
+      return fail("cannot write to " + out);
+    const std::string scan = scan_path(velodyne_dir, i);
+    if (scan.empty()) {
+      if (!skip_missing) {
+        char name[32];
+        std::snprintf(name, sizeof(name), "%06zu.bin", i);
+        return fail("scan " + velodyne_dir + "/" + name + " not found (frame " + std::to_string(i) +
+                    "; --skip-missing-scans writes poses without it, --max-frames converts fewer frames)");
+      }
+      ++missing;
+    } else {
+      if (!read_cloud_file(scan, &cloud, &error)) return fail(error);
+      if (!writer.write_message(scan_channel, utime, to_message(cloud, utime, seq, frame)))
+        return fail("cannot write to " + out);
+      ++scans;
+      points += static_cast<std::int64_t>(cloud.size());
+    }
+    bar.update(static_cast<std::int64_t>(i + 1));
+  }
+  bar.finish();
+  writer.close();
+  std::error_code ec;
+  const auto bytes = static_cast<std::int64_t>(fs::file_size(out, ec));
+
+  Table t({"kitti2lcm", "value"});
+  t.add({"frames", std::to_string(n)});
+  t.add({"scans written", std::to_string(scans)});
+  t.add({"frames without scan", std::to_string(missing)});
+  t.add({"points per scan (mean)", scans > 0 ? std::to_string(points / scans) : "-"});
+  t.add({"odometry", odometry_path.empty() ? "ground truth + drift (seed " + std::to_string(drift.seed) + ")" : odometry_path});
+  t.add({"final odometry error [m]", fmt((odom[n - 1].translation() - gt[n - 1].translation()).norm())});
+  t.add({"output", out + " (" + fmt(static_cast<double>(bytes) / 1e6, 1) + " MB)"});
+  std::cout << t.str();
+  if (json)
+    print_json_line({{"frames", n},
+                     {"scans", scans},
+                     {"missing_scans", missing},
+                     {"points", points},
+                     {"bytes", bytes},
+                     {"final_odometry_error", (odom[n - 1].translation() - gt[n - 1].translation()).norm()},
+                     {"out", out}});
+  return 0;
+}
