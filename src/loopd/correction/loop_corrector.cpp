@@ -1,0 +1,127 @@
+#include "loopd/correction/loop_corrector.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "loopd/core/stopwatch.hpp"
+#include "loopd/correction/trajectory_tools.hpp"
+
+namespace loopd {
+
+std::string to_string(CorrectionMethod method) {
+  switch (method) {
+    case CorrectionMethod::kHeuristic:
+      return "heuristic";
+    case CorrectionMethod::kGraph:
+      return "graph";
+    case CorrectionMethod::kHeuristicThenGraph:
+      return "heuristic+graph";
+  }
+  return "unknown";
+}
+
+std::optional<CorrectionMethod> correction_method_from_string(const std::string& name) {
+  if (name == "heuristic") return CorrectionMethod::kHeuristic;
+  if (name == "graph") return CorrectionMethod::kGraph;
+  if (name == "heuristic+graph" || name == "heuristic_then_graph") return CorrectionMethod::kHeuristicThenGraph;
+  return std::nullopt;
+}
+
+std::optional<std::string> LoopCorrectorConfig::validate() const {
+  if (auto e = heuristic.validate()) return "heuristic: " + *e;
+  if (auto e = graph.validate()) return "graph: " + *e;
+  return std::nullopt;
+}
+
+LoopCorrector::LoopCorrector(const LoopCorrectorConfig& config) : config_(config) {
+  if (auto e = config_.validate()) throw std::invalid_argument("LoopCorrectorConfig: " + *e);
+}
+
+Eigen::Isometry3d LoopCorrector::T_map_odom() const {
+  if (odometry_.empty()) return Eigen::Isometry3d::Identity();
+  return corrected_.back() * odometry_.back().inverse();
+}
+
+int LoopCorrector::add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual) {
+  const Eigen::Isometry3d T_map_odom_now = T_map_odom();
+  odometry_.push_back(T_odom_sensor);
+  residuals_.push_back(residual);
+  corrected_.push_back(T_map_odom_now * T_odom_sensor);
+  return static_cast<int>(odometry_.size()) - 1;
+}
+
+CorrectionResult LoopCorrector::run_graph(std::vector<Eigen::Isometry3d> warm, CorrectionResult r) {
+  const PoseGraphResult g = optimize_pose_graph(odometry_, residuals_, loops_, warm, config_.graph);
+  r.ms_graph = g.ms;
+  r.graph_iterations = g.iterations;
+  r.graph_converged = g.converged;
+  r.reason = g.message;
+  if (g.poses.size() == odometry_.size()) corrected_ = g.poses;
+  return r;
+}
+
+CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
+  CorrectionResult r;
+  r.method = config_.method;
+  const int n = static_cast<int>(odometry_.size());
+  if (loop.query_index < 0 || loop.match_index < 0 || loop.query_index >= n || loop.match_index >= n) {
+    r.reason = "loop index out of range";
+    return r;
+  }
+  if (loop.query_index == loop.match_index) {
+    r.reason = "zero-length loop (query == match)";
+    return r;
+  }
+  loops_.push_back(loop);
+  r.num_loops = static_cast<int>(loops_.size());
+  const int e = std::max(loop.query_index, loop.match_index);
+  if (e < max_end_index_) {
+    // Out of order (offline use): the inside-out order of correct_heuristic_all needs a full pass.
+    return recorrect_all();
+  }
+  max_end_index_ = e;
+
+  Stopwatch watch;
+  // Online case: apply the new loop to the current corrected state; closed spans keep earlier loops closed.
+  std::vector<Eigen::Isometry3d> warm = corrected_;
+  const std::vector<double> base = edge_weights(odometry_, residuals_, config_.heuristic);
+  if (config_.method != CorrectionMethod::kGraph) apply_heuristic_with_spans(warm, base, loop, closed_spans_, config_.heuristic);
+  else closed_spans_.emplace_back(std::min(loop.query_index, loop.match_index), e);
+  r.ms_heuristic = watch.ms();
+  if (config_.method == CorrectionMethod::kHeuristic) {
+    corrected_ = std::move(warm);
+    r.reason = "heuristic";
+  } else {
+    r = run_graph(std::move(warm), r);
+  }
+  r.ok = true;
+  std::tie(r.end_translation_error, r.end_rotation_error) = loop_end_error(corrected_, loop);
+  return r;
+}
+
+CorrectionResult LoopCorrector::recorrect_all() {
+  CorrectionResult r;
+  r.method = config_.method;
+  r.num_loops = static_cast<int>(loops_.size());
+  Stopwatch watch;
+  std::vector<Eigen::Isometry3d> warm = odometry_;
+  closed_spans_.clear();
+  max_end_index_ = -1;
+  for (const auto& l : loops_) {
+    max_end_index_ = std::max(max_end_index_, std::max(l.query_index, l.match_index));
+    closed_spans_.emplace_back(std::min(l.query_index, l.match_index), std::max(l.query_index, l.match_index));
+  }
+  if (config_.method != CorrectionMethod::kGraph) warm = correct_heuristic_all(odometry_, residuals_, loops_, config_.heuristic);
+  r.ms_heuristic = watch.ms();
+  if (config_.method == CorrectionMethod::kHeuristic) {
+    corrected_ = std::move(warm);
+    r.reason = "heuristic";
+  } else {
+    r = run_graph(std::move(warm), r);
+  }
+  r.ok = true;
+  if (!loops_.empty()) std::tie(r.end_translation_error, r.end_rotation_error) = loop_end_error(corrected_, loops_.back());
+  return r;
+}
+
+}  // namespace loopd

@@ -1,0 +1,88 @@
+#pragma once
+// Keeps the keyframe trajectory and all accepted loops, and re-corrects on each new loop.
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "loopd/correction/loop_correction.hpp"
+#include "loopd/correction/pose_graph.hpp"
+
+namespace loopd {
+
+/// @brief Which correction runs on a new loop.
+enum class CorrectionMethod {
+  kHeuristic,           ///< Vlaminck 2019, Sec. 4.4 only (O(n), well under 1 ms for 5000 poses)
+  kGraph,               ///< pose graph from the previous corrected state (raw odometry for the first loop)
+  kHeuristicThenGraph,  ///< heuristic warm start, then the pose graph (Ren 2019, Sec. 3.4.3) -- default
+};
+std::string to_string(CorrectionMethod method);
+/// @brief "heuristic", "graph", "heuristic+graph" (also "heuristic_then_graph").
+std::optional<CorrectionMethod> correction_method_from_string(const std::string& name);
+
+/// @brief Settings of the LoopCorrector.
+struct LoopCorrectorConfig {
+  CorrectionMethod method = CorrectionMethod::kHeuristicThenGraph;
+  HeuristicCorrectionConfig heuristic;
+  PoseGraphConfig graph;
+  std::optional<std::string> validate() const;
+};
+
+/// @brief What one re-correction did.
+struct CorrectionResult {
+  bool ok = false;
+  std::string reason;            ///< why not ok, or solver message
+  CorrectionMethod method = CorrectionMethod::kHeuristic;
+  int num_loops = 0;             ///< loops in the graph
+  double ms_heuristic = 0;       ///< [ms]
+  double ms_graph = 0;           ///< [ms]
+  int graph_iterations = 0;
+  bool graph_converged = false;
+  double end_translation_error = 0;  ///< [m] loop-end mismatch of the new loop after correction
+  double end_rotation_error = 0;     ///< [rad]
+};
+
+/// @brief Holds odometry keyframe poses (+ residuals) and all accepted loops; every keyframe's corrected pose is
+/// available after each loop, and any later odometry pose maps into the corrected frame with T_map_odom().
+/// Not thread-safe; the daemon calls it from its worker.
+class LoopCorrector {
+ public:
+  /// @throws std::invalid_argument when the config is invalid (configuration error, once at construction).
+  explicit LoopCorrector(const LoopCorrectorConfig& config = {});
+
+  /// @brief Appends a keyframe (odometry pose T_odom_sensor and the residual of the step ending at it, 0 = unknown).
+  /// Its corrected pose is T_map_odom() * T_odom_sensor. Returns its index.
+  int add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual = 0.0);
+
+  /// @brief Stores the loop and re-corrects the whole trajectory. Zero-length loops and bad indices are rejected
+  /// (ok = false, nothing changes); the same keyframe pair twice is accepted (the graph averages them).
+  CorrectionResult add_loop(const LoopConstraint& loop);
+
+  /// @brief Re-corrects from odometry with all loops (e.g. after changing the method).
+  CorrectionResult recorrect_all();
+
+  const std::vector<Eigen::Isometry3d>& corrected_poses() const { return corrected_; }
+  const std::vector<Eigen::Isometry3d>& odometry_poses() const { return odometry_; }
+  const std::vector<double>& residuals() const { return residuals_; }
+  const std::vector<LoopConstraint>& loops() const { return loops_; }
+  std::size_t size() const { return odometry_.size(); }
+  const LoopCorrectorConfig& config() const { return config_; }
+
+  /// @brief T_map_odom = corrected_last * odom_last^-1 (identity before any keyframe).
+  Eigen::Isometry3d T_map_odom() const;
+  /// @brief Any odometry pose (e.g. one received after the last keyframe) in the corrected frame.
+  Eigen::Isometry3d to_map(const Eigen::Isometry3d& T_odom_sensor) const { return T_map_odom() * T_odom_sensor; }
+
+ private:
+  CorrectionResult run_graph(std::vector<Eigen::Isometry3d> warm, CorrectionResult r);
+
+  LoopCorrectorConfig config_;
+  std::vector<Eigen::Isometry3d> odometry_;
+  std::vector<double> residuals_;
+  std::vector<Eigen::Isometry3d> corrected_;
+  std::vector<LoopConstraint> loops_;
+  std::vector<std::pair<int, int>> closed_spans_;
+  int max_end_index_ = -1;
+};
+
+}  // namespace loopd

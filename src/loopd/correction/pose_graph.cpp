@@ -1,0 +1,284 @@
+#include "loopd/correction/pose_graph.hpp"
+
+#include <ceres/ceres.h>
+#include <ceres/manifold.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <memory>
+
+#include "loopd/core/stopwatch.hpp"
+
+namespace loopd {
+
+std::optional<std::string> PoseGraphConfig::validate() const {
+  if (!(odometry_translation_sigma > 0.0) || !(odometry_rotation_sigma > 0.0)) return "odometry sigmas must be > 0";
+  if (!(loop_translation_sigma > 0.0) || !(loop_rotation_sigma > 0.0)) return "loop sigmas must be > 0";
+  if (!(max_loop_information > 0.0) || !(min_loop_information > 0.0) || min_loop_information > max_loop_information)
+    return "need 0 < min_loop_information <= max_loop_information";
+  if (!(loop_loss_scale > 0.0)) return "loop_loss_scale must be > 0";
+  if (!(graduated_start_factor >= 1.0)) return "graduated_start_factor must be >= 1";
+  if (!(plane_normal_sigma > 0.0) || !(plane_distance_sigma > 0.0)) return "plane sigmas must be > 0";
+  if (max_iterations < 1) return "max_iterations must be >= 1";
+  if (num_threads < 1) return "num_threads must be >= 1";
+  if (auto err = weights.validate()) return "weights: " + *err;
+  return std::nullopt;
+}
+
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+/// Relative-pose edge a -> b: residual = sqrt_info * [R_z^T (t_ab - t_z); 2 vec(q_z^-1 q_ab)], both a right
+/// perturbation of the measurement Z (in frame b), ordering (t, r).
+struct RelativePoseError {
+  RelativePoseError(const Eigen::Isometry3d& Z, const Matrix6d& sqrt_info)
+      : p_z(Z.translation()), q_z(Eigen::Quaterniond(Z.linear()).normalized()), sqrt_info(sqrt_info) {}
+
+  template <typename T>
+  bool operator()(const T* pa, const T* qa, const T* pb, const T* qb, T* out) const {
+    Eigen::Map<const Eigen::Matrix<T, 3, 1>> Pa(pa), Pb(pb);
+    Eigen::Map<const Eigen::Quaternion<T>> Qa(qa), Qb(qb);
+    const Eigen::Quaternion<T> Qa_inv = Qa.conjugate();
+    const Eigen::Quaternion<T> Qz_inv = q_z.conjugate().template cast<T>();
+    const Eigen::Quaternion<T> dq = Qz_inv * (Qa_inv * Qb);
+    const Eigen::Matrix<T, 3, 1> dp = Qz_inv * (Qa_inv * (Pb - Pa) - p_z.template cast<T>());
+    Eigen::Matrix<T, 6, 1> r;
+    r.template head<3>() = dp;
+    r.template tail<3>() = T(2.0) * dq.vec();
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> res(out);
+    res = sqrt_info.template cast<T>() * r;
+    return true;
+  }
+
+  static ceres::CostFunction* create(const Eigen::Isometry3d& Z, const Matrix6d& sqrt_info) {
+    return new ceres::AutoDiffCostFunction<RelativePoseError, 6, 3, 4, 3, 4>(new RelativePoseError(Z, sqrt_info));
+  }
+
+  Eigen::Vector3d p_z;
+  Eigen::Quaterniond q_z;
+  Matrix6d sqrt_info;
+};
+
+/// Ren 2019, Sec. 3.4.2, Eqs. (9)-(11): the world plane node (n_w, d_w) expressed in the sensor frame,
+/// n_s = R^T n_w, d_s = d_w + n_w . t, compared with the plane observed in that frame. We compare the normal vectors
+/// directly (instead of Ren's two angles, which are singular for a horizontal plane) plus the offset.
+struct PlaneError {
+  PlaneError(const Eigen::Vector4d& obs, double sigma_n, double sigma_d) : obs(obs), inv_n(1.0 / sigma_n), inv_d(1.0 / sigma_d) {}
+
+  template <typename T>
+  bool operator()(const T* p, const T* q, const T* n_w, const T* d_w, T* out) const {
+    Eigen::Map<const Eigen::Matrix<T, 3, 1>> P(p), N(n_w);
+    Eigen::Map<const Eigen::Quaternion<T>> Q(q);
+    const Eigen::Matrix<T, 3, 1> n_s = Q.conjugate() * N;
+    const T d_s = d_w[0] + N.dot(P);
+    for (int k = 0; k < 3; ++k) out[k] = T(inv_n) * (n_s[k] - T(obs[k]));
+    out[3] = T(inv_d) * (d_s - T(obs[3]));
+    return true;
+  }
+
+  static ceres::CostFunction* create(const Eigen::Vector4d& obs, double sigma_n, double sigma_d) {
+    return new ceres::AutoDiffCostFunction<PlaneError, 4, 3, 4, 3, 1>(new PlaneError(obs, sigma_n, sigma_d));
+  }
+
+  Eigen::Vector4d obs;
+  double inv_n, inv_d;
+};
+
+Matrix6d diagonal_sqrt_info(double sigma_t, double sigma_r) {
+  Vector6d d;
+  d << Eigen::Vector3d::Constant(1.0 / sigma_t), Eigen::Vector3d::Constant(1.0 / sigma_r);
+  return d.asDiagonal();
+}
+
+/// Loop information -> square root, with the GICP Hessian's scale capped (see PoseGraphConfig).
+Matrix6d loop_sqrt_info(const Matrix6d& information, const PoseGraphConfig& config) {
+  if (information.isZero(0.0) || !information.allFinite())
+    return diagonal_sqrt_info(config.loop_translation_sigma, config.loop_rotation_sigma);
+  const Matrix6d sym = 0.5 * (information + information.transpose());
+  Eigen::SelfAdjointEigenSolver<Matrix6d> es(sym);
+  Vector6d lambda = es.eigenvalues();
+  const double max_l = lambda.maxCoeff();
+  if (!(max_l > 0.0)) return diagonal_sqrt_info(config.loop_translation_sigma, config.loop_rotation_sigma);
+  if (max_l > config.max_loop_information) lambda *= config.max_loop_information / max_l;
+  for (int k = 0; k < 6; ++k) lambda[k] = std::max(lambda[k], config.min_loop_information);
+  return lambda.cwiseSqrt().asDiagonal() * es.eigenvectors().transpose();
+}
+
+ceres::LossFunction* make_loss(RobustLoss kind, double scale) {
+  switch (kind) {
+    case RobustLoss::kHuber:
+      return new ceres::HuberLoss(scale);
+    case RobustLoss::kCauchy:
+      return new ceres::CauchyLoss(scale);
+    case RobustLoss::kNone:
+      break;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odometry_poses, const std::vector<double>& residuals,
+                                    const std::vector<LoopConstraint>& loops, const std::vector<Eigen::Isometry3d>& initial_guess,
+                                    const PoseGraphConfig& config, const std::vector<PlaneObservation>& planes,
+                                    const std::vector<Eigen::Matrix<double, 6, 6>>& odometry_information) {
+  Stopwatch watch;
+  PoseGraphResult result;
+  const std::size_t n = odometry_poses.size();
+  const std::vector<Eigen::Isometry3d>& init = initial_guess.size() == n ? initial_guess : odometry_poses;
+  result.poses = init;
+  if (auto err = config.validate()) {
+    result.message = "invalid config: " + *err;
+    return result;
+  }
+  if (n < 2) {
+    result.converged = true;
+    result.message = "fewer than 2 poses";
+    return result;
+  }
+
+  // Parameters: position (3) and Eigen quaternion (x, y, z, w) per keyframe.
+  std::vector<double> p(3 * n), q(4 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    Eigen::Map<Eigen::Vector3d> pi(&p[3 * i]);
+    pi = init[i].translation();
+    Eigen::Map<Eigen::Quaterniond> qi(&q[4 * i]);
+    qi = Eigen::Quaterniond(init[i].linear()).normalized();
+  }
+
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  ceres::SphereManifold<3> sphere_manifold;
+
+  // Odometry edges: variance proportional to the heuristic's share c_ij / mean(c) (Vlaminck 2019, Sec. 4.4).
+  const std::vector<double> c = edge_weights(odometry_poses, residuals, config.weights);
+  double mean_c = 0.0;
+  for (std::size_t i = 1; i < n; ++i) mean_c += c[i];
+  mean_c /= static_cast<double>(n - 1);
+  if (!(mean_c > 0.0)) mean_c = 1.0;
+  const bool have_cov = odometry_information.size() == n;
+  for (std::size_t i = 1; i < n; ++i) {
+    const Eigen::Isometry3d Z = odometry_poses[i - 1].inverse() * odometry_poses[i];
+    Matrix6d sqrt_info;
+    if (have_cov && odometry_information[i].allFinite() && !odometry_information[i].isZero(0.0)) {
+      Eigen::LLT<Matrix6d> llt(0.5 * (odometry_information[i] + odometry_information[i].transpose()));
+      sqrt_info = llt.info() == Eigen::Success ? Matrix6d(llt.matrixU()) : diagonal_sqrt_info(config.odometry_translation_sigma, config.odometry_rotation_sigma);
+    } else {
+      const double f = std::sqrt(std::max(c[i] / mean_c, 1e-6));
+      sqrt_info = diagonal_sqrt_info(config.odometry_translation_sigma * f, config.odometry_rotation_sigma * f);
+    }
+    problem.AddResidualBlock(RelativePoseError::create(Z, sqrt_info), nullptr, &p[3 * (i - 1)], &q[4 * (i - 1)], &p[3 * i], &q[4 * i]);
+  }
+
+  // Loop edges with a robust kernel whose scale can be changed between solves (graduated kernel).
+  ceres::LossFunctionWrapper loop_loss(make_loss(config.loop_loss, config.loop_loss_scale), ceres::TAKE_OWNERSHIP);
+  std::vector<ceres::ResidualBlockId> loop_blocks;
+  for (const LoopConstraint& l : loops) {
+    if (l.query_index < 0 || l.match_index < 0 || l.query_index >= static_cast<int>(n) || l.match_index >= static_cast<int>(n) ||
+        l.query_index == l.match_index)
+      continue;  // zero-length loops and bad indices carry no information
+    const auto m = static_cast<std::size_t>(l.match_index), qi = static_cast<std::size_t>(l.query_index);
+    loop_blocks.push_back(problem.AddResidualBlock(RelativePoseError::create(l.T_match_query, loop_sqrt_info(l.information, config)),
+                                                   config.loop_loss == RobustLoss::kNone ? nullptr : &loop_loss, &p[3 * m], &q[4 * m],
+                                                   &p[3 * qi], &q[4 * qi]));
+  }
+
+  // Plane nodes (Ren 2019, Sec. 3.4.2), initialised from the first observation of each plane.
+  std::map<int, std::pair<Eigen::Vector3d, double>> plane_nodes;
+  std::vector<double> plane_storage;
+  if (config.use_plane_constraints) {
+    for (const PlaneObservation& o : planes) {
+      if (o.index < 0 || o.index >= static_cast<int>(n) || plane_nodes.count(o.plane_id)) continue;
+      const Eigen::Isometry3d& T = init[static_cast<std::size_t>(o.index)];
+      const Eigen::Vector3d n_w = (T.linear() * o.plane_sensor.head<3>()).normalized();
+      plane_nodes[o.plane_id] = {n_w, o.plane_sensor[3] - n_w.dot(T.translation())};
+    }
+    plane_storage.resize(4 * plane_nodes.size());
+    std::map<int, std::size_t> slot;
+    std::size_t k = 0;
+    for (const auto& [id, node] : plane_nodes) {
+      Eigen::Map<Eigen::Vector3d> nk(&plane_storage[4 * k]);
+      nk = node.first;
+      plane_storage[4 * k + 3] = node.second;
+      slot[id] = k++;
+    }
+    for (const PlaneObservation& o : planes) {
+      if (o.index < 0 || o.index >= static_cast<int>(n)) continue;
+      const std::size_t s = slot.at(o.plane_id);
+      Eigen::Vector4d obs = o.plane_sensor;
+      obs /= obs.head<3>().norm();
+      const auto i = static_cast<std::size_t>(o.index);
+      problem.AddResidualBlock(PlaneError::create(obs, config.plane_normal_sigma, config.plane_distance_sigma), nullptr, &p[3 * i],
+                               &q[4 * i], &plane_storage[4 * s], &plane_storage[4 * s + 3]);
+    }
+    for (std::size_t s = 0; s < plane_nodes.size(); ++s) problem.SetManifold(&plane_storage[4 * s], &sphere_manifold);
+  }
+
+  for (std::size_t i = 0; i < n; ++i) problem.SetManifold(&q[4 * i], &quaternion_manifold);
+  problem.SetParameterBlockConstant(&p[0]);  // gauge: the first keyframe stays where it is
+  problem.SetParameterBlockConstant(&q[0]);
+
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  options.minimizer_type = ceres::TRUST_REGION;
+  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  options.max_num_iterations = config.max_iterations;
+  options.function_tolerance = config.function_tolerance;
+  options.num_threads = config.num_threads;
+  options.logging_type = ceres::SILENT;
+  options.minimizer_progress_to_stdout = false;
+
+  // Graduated kernel: when loops start far from satisfied (raw odometry start), a tight kernel would ignore them all.
+  std::vector<double> scales{config.loop_loss_scale};
+  if (config.graduated && config.loop_loss != RobustLoss::kNone && !loop_blocks.empty()) {
+    double worst = 0.0;
+    for (auto id : loop_blocks) {
+      double cost = 0.0;
+      problem.EvaluateResidualBlock(id, false, &cost, nullptr, nullptr);  // cost without the loss = 0.5 |r|^2
+      worst = std::max(worst, std::sqrt(2.0 * cost));
+    }
+    if (worst > 10.0 * config.loop_loss_scale) {
+      scales.clear();
+      for (double f = config.graduated_start_factor; f > 1.0; f /= 10.0) scales.push_back(config.loop_loss_scale * f);
+      scales.push_back(config.loop_loss_scale);
+    }
+  }
+
+  bool first = true;
+  result.converged = true;
+  for (double scale : scales) {
+    loop_loss.Reset(make_loss(config.loop_loss, scale), ceres::TAKE_OWNERSHIP);
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, &problem, &summary);
+    if (first) result.initial_cost = summary.initial_cost;
+    first = false;
+    result.final_cost = summary.final_cost;
+    result.iterations += static_cast<int>(summary.iterations.size());
+    result.converged = result.converged && summary.termination_type == ceres::CONVERGENCE;
+    result.message = summary.BriefReport();
+    if (summary.termination_type == ceres::FAILURE) {
+      result.converged = false;
+      break;
+    }
+  }
+
+  for (std::size_t i = 0; i < n; ++i) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::Map<const Eigen::Quaterniond>(&q[4 * i]).normalized().toRotationMatrix();
+    T.translation() = Eigen::Map<const Eigen::Vector3d>(&p[3 * i]);
+    result.poses[i] = T;
+  }
+  for (std::size_t s = 0; s < plane_nodes.size(); ++s) result.planes.emplace_back(Eigen::Map<const Eigen::Vector4d>(&plane_storage[4 * s]));
+  result.ms = watch.ms();
+  return result;
+}
+
+}  // namespace loopd
