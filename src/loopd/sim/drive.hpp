@@ -1,0 +1,84 @@
+#pragma once
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "loopd/core/lidar_model.hpp"
+#include "loopd/core/point_cloud.hpp"
+#include "loopd/core/pose.hpp"
+#include "loopd/sim/town.hpp"
+
+namespace loopd {
+
+/// @brief Settings of a simulated drive through make_town(seed).
+///
+/// The route (street nodes (i, j), block ~50-75 m) repeats every lap; a lap has three visits:
+///  - visit 0, short loop around one block: (0,0) E (1,0) N (1,1) W (0,1) S (0,0);
+///  - visit 1, the same block in the opposite direction, entered through a second loop:
+///    (0,0) S (0,-1) W (-1,-1) N (-1,0) E (0,0) N (0,1) E (1,1) S (1,0) S (1,-1) W (0,-1) N (0,0);
+///  - visit 2, long loop: (0,0) E (1,0) E (2,0) N (2,2) W (0,2) S (0,0), the first half of (0,0)->(1,0) driven 3 m to
+///    the left of the usual lane (lane offset), then back to the usual lane (same direction as visit 0).
+/// Parked cars marked movable change state with the visit (later laps continue counting visits: lap * 3 + v).
+struct DriveConfig {
+  std::string sensor = "hdl64";      ///< lidar model name (lidar_model_from_name)
+  int num_scans = 1000;
+  std::uint64_t seed = 1;            ///< town, noise and odometry drift seed
+  double speed = 10.0;               ///< [m/s]
+  double rate_hz = 10.0;             ///< scan rate [Hz]
+  double sensor_height = 1.8;        ///< [m] above the ground
+  double lane_lateral = -2.0;        ///< [m] usual lane: left of the street centre line (negative = right)
+  double lane_offset = 3.0;          ///< [m] extra lateral offset on the lane-offset stretch
+  double corner_radius = 9.0;        ///< [m] corner rounding at intersections
+  std::int64_t start_utime = 1700000000000000;  ///< [us]
+  // Odometry drift (applied to ground-truth increments).
+  double heading_bias_deg_per_100m = 0.2;  ///< systematic yaw drift [deg / 100 m]
+  double scale_bias = 0.01;                ///< systematic scale error of translation (1 %)
+  double yaw_random_walk_deg = 0.02;       ///< [deg] yaw error per step (heading random walk: sigma grows with sqrt(steps))
+  double translation_noise = 0.01;         ///< [m] white translation noise per step (each axis)
+  double pitch_roll_noise_deg = 0.005;     ///< [deg] white pitch / roll noise per step
+  double burst_probability = 0.01;         ///< chance per step that a degraded stretch starts
+  int burst_length = 20;                   ///< [steps] length of a degraded stretch
+  double burst_factor = 10.0;              ///< noise multiplier inside a degraded stretch
+  double base_residual = 0.03;             ///< [m] residual of a clean odometry step
+  std::optional<std::string> validate() const;
+};
+
+/// @brief One scan of a drive.
+struct DriveScan {
+  int index = 0;
+  std::int64_t utime = 0;                                            ///< [us]
+  Eigen::Isometry3d T_world_sensor = Eigen::Isometry3d::Identity();  ///< ground truth
+  StampedPose odometry;     ///< drifting odometry (starts at the ground truth); residual [m] of the step ending here
+  int visit = 0;            ///< visit counter (which state the movable cars are in)
+  double route_distance = 0.0;  ///< [m] travelled since the start
+  double injected_error = 0.0;  ///< [m] random drift injected on the step ending here (translation + 10 m * yaw)
+  bool degraded = false;        ///< inside a degraded (burst) stretch
+};
+
+/// @brief A drive: town, lidar model and per-scan poses. Scans are simulated on demand.
+struct Drive {
+  DriveConfig config;
+  LidarModel model;
+  Town town;
+  std::vector<DriveScan> scans;
+  double lap_length = 0.0;  ///< [m] route length of one lap
+  std::string error;        ///< non-empty when the config was invalid (scans empty)
+
+  /// @brief Ray-casts scan i (noise seed = hash(config.seed, i), cars as on scans[i].visit).
+  PointCloud simulate(int i, int num_threads) const;
+  /// @brief Seed of scan i's noise.
+  std::uint64_t scan_seed(int i) const;
+  /// @brief Route distance covered [m].
+  double route_length() const { return scans.empty() ? 0.0 : scans.back().route_distance; }
+  /// @brief Number of distinct visits (max visit + 1).
+  int num_visits() const;
+  /// @brief Count of scans that have a ground-truth partner closer than `radius` [m] at least `min_gap` scans earlier.
+  int count_revisits(double radius = 1.0, int min_gap = 100) const;
+};
+
+/// @brief Builds the route, ground truth and drifting odometry for `config`. Deterministic for config.seed.
+Drive make_drive(const DriveConfig& config);
+
+}  // namespace loopd
