@@ -6,6 +6,9 @@
 // binning), bins found by comparisons instead of atan2/sqrt, no atomics, and the per-point work
 // in plain loops over contiguous arrays that the compiler can vectorise.
 
+// No FMA contraction: u, v and the sector test round exactly like the CPU reference (fewer boundary flips).
+#pragma OPENCL FP_CONTRACT OFF
+
 #define M2DP_LT (M2DP_L * M2DP_T)
 #define M2DP_HALF_T (M2DP_T / 2)
 
@@ -49,11 +52,12 @@ __kernel void m2dp_moments(__global const float* xyz, const int n, const float s
 }
 
 // Pass 2 (reduction): per chunk, the largest squared distance to the centroid c (the outer ring
-// radius), the third moments along the frame axes a0, a1, a2 (for their canonical signs) and the
-// centred second moments in that frame (accurate degeneracy checks: coincident, collinear).
-// axes = {a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z} (host computes them from pass 1).
+// radius), the third moments along the sign axes b0, b1, b2 (for their canonical signs), and the
+// centred first and second moments in the pass-1 PCA axes a0, a1, a2 (the host refines the centroid
+// and axes with them; accurate because the coordinates are centred and nearly decorrelated).
+// frame = {cx, cy, cz, a0 (3), a1 (3), a2 (3), b0 (3), b1 (3), b2 (3)}.
 __kernel void m2dp_extent(__global const float* xs, __global const float* ys, __global const float* zs, const int n,
-                          __constant float* frame /* cx, cy, cz, then 9 axis components */, __global float* extent) {
+                          __constant float* frame, __global float* extent) {
   const int chunk = (int)get_global_id(0);
   const int begin = chunk * M2DP_CHUNK;
   const int end = min(n, begin + M2DP_CHUNK);
@@ -61,23 +65,33 @@ __kernel void m2dp_extent(__global const float* xs, __global const float* ys, __
   const float a0x = frame[3], a0y = frame[4], a0z = frame[5];
   const float a1x = frame[6], a1y = frame[7], a1z = frame[8];
   const float a2x = frame[9], a2y = frame[10], a2z = frame[11];
+  const float b0x = frame[12], b0y = frame[13], b0z = frame[14];
+  const float b1x = frame[15], b1y = frame[16], b1z = frame[17];
+  const float b2x = frame[18], b2y = frame[19], b2z = frame[20];
   float max_r2 = 0.0f, m0 = 0.0f, m1 = 0.0f, m2 = 0.0f;
   float s00 = 0.0f, s01 = 0.0f, s02 = 0.0f, s11 = 0.0f, s12 = 0.0f, s22 = 0.0f;
+  float f0 = 0.0f, f1 = 0.0f, f2 = 0.0f;
   for (int i = begin; i < end; ++i) {
     const float x = xs[i] - cx, y = ys[i] - cy, z = zs[i] - cz;
     max_r2 = fmax(max_r2, x * x + y * y + z * z);
     const float t0 = a0x * x + a0y * y + a0z * z;
     const float t1 = a1x * x + a1y * y + a1z * z;
     const float t2 = a2x * x + a2y * y + a2z * z;
-    m0 += t0 * t0 * t0;
-    m1 += t1 * t1 * t1;
-    m2 += t2 * t2 * t2;
+    const float w0 = b0x * x + b0y * y + b0z * z;
+    const float w1 = b1x * x + b1y * y + b1z * z;
+    const float w2 = b2x * x + b2y * y + b2z * z;
+    m0 += w0 * w0 * w0;
+    m1 += w1 * w1 * w1;
+    m2 += w2 * w2 * w2;
     s00 += t0 * t0;
     s01 += t0 * t1;
     s02 += t0 * t2;
     s11 += t1 * t1;
     s12 += t1 * t2;
     s22 += t2 * t2;
+    f0 += t0;
+    f1 += t1;
+    f2 += t2;
   }
   __global float* e = extent + chunk * M2DP_EXTENT_STRIDE;
   e[0] = max_r2;
@@ -90,8 +104,12 @@ __kernel void m2dp_extent(__global const float* xs, __global const float* ys, __
   e[7] = s11;
   e[8] = s12;
   e[9] = s22;
-  e[10] = 0.0f;
-  e[11] = 0.0f;
+  e[10] = f0;
+  e[11] = f1;
+  e[12] = f2;
+  e[13] = 0.0f;
+  e[14] = 0.0f;
+  e[15] = 0.0f;
 }
 
 // Pass 3: projection and binning of all p*q planes in one launch; global size (chunks, planes).

@@ -24,9 +24,13 @@
 #define M2DP_MOMENT_STRIDE 12
 
 /* Floats per chunk written by the extent kernel: max squared distance to the centroid, sums of
- * the cubed coordinates along the three frame axes (third moments, for the axis signs), then the
- * centred second moments t0t0, t0t1, t0t2, t1t1, t1t2, t2t2 (degeneracy checks), padded. */
-#define M2DP_EXTENT_STRIDE 12
+ * the cubed coordinates along the three sign axes (third moments, for the axis signs), the centred
+ * second moments t0t0, t0t1, t0t2, t1t1, t1t2, t2t2 and first moments t0, t1, t2 in the pass-1 PCA
+ * axes (to refine the centroid and axes, and for accurate degeneracy checks), padded. */
+#define M2DP_EXTENT_STRIDE 16
+
+/* Floats of the frame buffer of the extent kernel: centroid (3), PCA axes (9, rows), sign axes (9). */
+#define M2DP_FRAME_FLOATS 21
 
 /* Upper bounds that keep the private histogram of a binning work-item small. */
 #define M2DP_MAX_RINGS 32

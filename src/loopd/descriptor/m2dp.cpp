@@ -64,45 +64,61 @@ std::string check_first(const FirstMoments& m) {
   return {};
 }
 
-std::string check_second(const SecondMoments& s) {
-  if (!std::isfinite(s.max_r2) || !s.second.allFinite() || !s.third.allFinite()) return "non-finite moments (NaN/Inf coordinates)";
-  if (s.max_r2 <= kMinExtent2) return "all points coincide (no extent)";
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(s.second, Eigen::EigenvaluesOnly);
-  const Eigen::Vector3d ev = es.eigenvalues();  // ascending
-  if (ev(1) <= kMinEigenRatio * ev(2)) return "points are collinear (no second principal direction)";
-  return {};
-}
-
-Eigen::Matrix3d frame_axes(const FirstMoments& m, M2dpFrame frame) {
-  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();
-  if (frame == M2dpFrame::kPca) {
-    // Vlaminck 2019 Sec. 4.1: the two dominant PCA directions become x and y.
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(m.covariance);
-    const Eigen::Matrix3d V = es.eigenvectors();  // ascending eigenvalues
-    axes.row(0) = V.col(2).transpose();
-    axes.row(1) = V.col(1).transpose();
-    axes.row(2) = V.col(0).transpose();
-  } else {
-    // z stays the sensor's up axis; x and y are the principal axes of the ground-plane (x, y) covariance.
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(m.covariance.topLeftCorner<2, 2>());
-    const Eigen::Vector2d d = es.eigenvectors().col(1);
-    axes.row(0) << d.x(), d.y(), 0.0;
-    axes.row(1) << -d.y(), d.x(), 0.0;
-    axes.row(2) << 0.0, 0.0, 1.0;
-  }
+Eigen::Matrix3d pca_axes(const Eigen::Matrix3d& covariance) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(covariance);
+  const Eigen::Matrix3d V = es.eigenvectors();  // ascending eigenvalues
+  Eigen::Matrix3d axes;
+  axes.row(0) = V.col(2).transpose();
+  axes.row(1) = V.col(1).transpose();
+  axes.row(2) = V.col(0).transpose();
   return axes;
 }
 
-Eigen::Matrix3d signed_axes(const Eigen::Matrix3d& axes, const SecondMoments& s, M2dpFrame frame) {
+Eigen::Matrix3d frame_axes(const Eigen::Matrix3d& covariance, M2dpFrame frame) {
+  // Vlaminck 2019 Sec. 4.1: the two dominant PCA directions become x and y.
+  if (frame == M2dpFrame::kPca) return pca_axes(covariance);
+  // z stays the sensor's up axis; x and y are the principal axes of the ground-plane (x, y) covariance.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(covariance.topLeftCorner<2, 2>());
+  const Eigen::Vector2d d = es.eigenvectors().col(1);
+  Eigen::Matrix3d axes;
+  axes.row(0) << d.x(), d.y(), 0.0;
+  axes.row(1) << -d.y(), d.x(), 0.0;
+  axes.row(2) << 0.0, 0.0, 1.0;
+  return axes;
+}
+
+Frame finish_frame(const FirstMoments& first, const Eigen::Matrix3d& pca, const Eigen::Matrix3d& sign_axes, const SecondMoments& s,
+                   M2dpFrame frame) {
+  Frame out;
+  if (!std::isfinite(s.max_r2) || !s.second.allFinite() || !s.third.allFinite() || !s.first.allFinite()) {
+    out.error = "non-finite moments (NaN/Inf coordinates)";
+    return out;
+  }
+  if (s.max_r2 <= kMinExtent2) {
+    out.error = "all points coincide (no extent)";
+    return out;
+  }
+  const Eigen::Vector3d delta = s.first / first.count;  // centroid correction, PCA coordinates
+  const Eigen::Matrix3d S = s.second / first.count - delta * delta.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(S, Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d ev = es.eigenvalues();  // ascending
+  if (!(ev(2) > 0) || ev(1) <= kMinEigenRatio * ev(2)) {
+    out.error = "points are collinear (no second principal direction)";
+    return out;
+  }
+  out.centroid = first.centroid + pca.transpose() * delta;
+  out.max_r2 = s.max_r2;
+  const Eigen::Matrix3d covariance = pca.transpose() * S * pca;
+  const Eigen::Matrix3d axes = frame_axes(covariance, frame);
+  // Third moments were summed along the (unrefined) sign axes; carry their sign over to the refined axes.
   Eigen::Vector3d x = axes.row(0).transpose(), z = axes.row(2).transpose();
-  if (s.third(0) < 0) x = -x;
-  if (frame == M2dpFrame::kPca && s.third(2) < 0) z = -z;
+  if (s.third(0) * x.dot(sign_axes.row(0).transpose()) < 0) x = -x;
+  if (frame == M2dpFrame::kPca && s.third(2) * z.dot(sign_axes.row(2).transpose()) < 0) z = -z;
   if (frame == M2dpFrame::kGravityAligned) z = Eigen::Vector3d::UnitZ();
   const Eigen::Vector3d y = z.cross(x);
-  Eigen::Matrix3d out;
-  out.row(0) = x.transpose();
-  out.row(1) = y.transpose();
-  out.row(2) = z.transpose();
+  out.axes.row(0) = x.transpose();
+  out.axes.row(1) = y.transpose();
+  out.axes.row(2) = z.transpose();
   return out;
 }
 

@@ -28,14 +28,16 @@ FirstMoments first_moments(const std::vector<Eigen::Vector3f>& points) {
   return m;
 }
 
-SecondMoments second_moments(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& centroid, const Eigen::Matrix3d& axes) {
+SecondMoments second_moments(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& centroid, const Eigen::Matrix3d& pca,
+                             const Eigen::Matrix3d& sign_axes) {
   SecondMoments s;
   for (const auto& p : points) {
     const Eigen::Vector3d q = p.cast<double>() - centroid;
     s.max_r2 = std::max(s.max_r2, q.squaredNorm());
-    const Eigen::Vector3d t = axes * q;
-    s.third += t.cwiseProduct(t).cwiseProduct(t);
+    const Eigen::Vector3d t = pca * q, w = sign_axes * q;
+    s.third += w.cwiseProduct(w).cwiseProduct(w);
     s.second.noalias() += t * t.transpose();
+    s.first += t;
   }
   return s;
 }
@@ -53,21 +55,22 @@ M2dpResult compute_m2dp_cpu(const std::vector<Eigen::Vector3f>& points, const M2
     result.error = err;
     return result;
   }
-  const Eigen::Matrix3d unsigned_axes = frame_axes(first, config.frame);
-  const SecondMoments second = second_moments(points, first.centroid, unsigned_axes);
-  if (std::string err = check_second(second); !err.empty()) {
-    result.error = err;
+  const Eigen::Matrix3d pca = pca_axes(first.covariance);
+  const Eigen::Matrix3d sign_axes = frame_axes(first.covariance, config.frame);
+  const SecondMoments second = second_moments(points, first.centroid, pca, sign_axes);
+  const Frame f = finish_frame(first, pca, sign_axes, second, config.frame);
+  if (!f.error.empty()) {
+    result.error = f.error;
     return result;
   }
-  const Eigen::Matrix3d axes = signed_axes(unsigned_axes, second, config.frame);
-  result.axes = axes;
-  result.centroid = first.centroid;
-  result.max_radius = std::sqrt(second.max_r2);
+  result.axes = f.axes;
+  result.centroid = f.centroid;
+  result.max_radius = std::sqrt(f.max_r2);
 
   // Step 3: project onto the p*q planes and count points per (ring, sector) bin: signature matrix A.
   const int l = config.num_rings_l, t = config.num_sectors_t, num_planes = config.num_planes(), num_bins = config.num_bins();
-  const std::vector<float> planes = plane_table(config, axes, first.centroid);
-  const std::vector<float> params = bin_params(config, second.max_r2);
+  const std::vector<float> planes = plane_table(config, f.axes, f.centroid);
+  const std::vector<float> params = bin_params(config, f.max_r2);
   std::vector<std::uint32_t> signature(static_cast<std::size_t>(num_planes) * num_bins, 0u);
   const int n = static_cast<int>(points.size());
   const int threads = config.num_threads > 0 ? config.num_threads : omp_get_max_threads();

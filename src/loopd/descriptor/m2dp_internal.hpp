@@ -19,24 +19,38 @@ struct FirstMoments {
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
 };
 
-/// Second-pass result, computed about the centroid in the (unsigned) frame axes.
+/// Second-pass sums about the first-pass centroid: extent, third moments along the sign axes, and centred first and
+/// second moments in the first-pass PCA axes (accurate even when the first pass was summed in float).
 struct SecondMoments {
   double max_r2 = 0;                                    ///< [m^2] farthest point from the centroid, squared
-  Eigen::Vector3d third = Eigen::Vector3d::Zero();      ///< sum of (a_k . q)^3 per axis
-  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();     ///< sum of (a_j . q)(a_k . q), centred (accurate)
+  Eigen::Vector3d third = Eigen::Vector3d::Zero();      ///< sum of (b_k . q)^3 per sign axis b_k
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();     ///< sum of (a_j . q)(a_k . q) in the PCA axes a
+  Eigen::Vector3d first = Eigen::Vector3d::Zero();      ///< sum of a_k . q
 };
 
-/// Axes (rows) of the frame before the sign rule: PCA of the covariance, or z-up + 2-D PCA in the ground plane.
-Eigen::Matrix3d frame_axes(const FirstMoments& m, M2dpFrame frame);
+/// Principal axes (rows, descending variance) of a covariance.
+Eigen::Matrix3d pca_axes(const Eigen::Matrix3d& covariance);
+
+/// Axes (rows) of the frame before the sign rule: PCA of the covariance (kPca), or z up and the principal axes of the
+/// ground-plane (x, y) covariance (kGravityAligned). These are also the sign axes of the second pass.
+Eigen::Matrix3d frame_axes(const Eigen::Matrix3d& covariance, M2dpFrame frame);
 
 /// Checks the first pass; empty when fine, else the error text (too few points, non-finite coordinates).
 std::string check_first(const FirstMoments& m);
-/// Checks the second pass (all points equal, collinear); empty when fine.
-std::string check_second(const SecondMoments& s);
 
-/// Canonical axis signs (third moment rule): x flipped so that its third moment is >= 0; for kPca z likewise;
-/// y = z cross x (right-handed). For kGravityAligned z stays (0, 0, 1).
-Eigen::Matrix3d signed_axes(const Eigen::Matrix3d& axes, const SecondMoments& s, M2dpFrame frame);
+/// The final frame of a scan.
+struct Frame {
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  ///< rows x, y, z in the binning coordinates
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  double max_r2 = 0;
+  std::string error;  ///< non-empty: degenerate (all points equal, collinear, non-finite)
+};
+
+/// Refines centroid and covariance with the second pass, checks degeneracy, and fixes the axis signs by the third
+/// moment rule: x flipped so that its third moment is >= 0, for kPca z likewise, y = z cross x (right-handed);
+/// for kGravityAligned z stays (0, 0, 1).
+Frame finish_frame(const FirstMoments& first, const Eigen::Matrix3d& pca, const Eigen::Matrix3d& sign_axes, const SecondMoments& s,
+                   M2dpFrame frame);
 
 /// Plane table: M2DP_PLANE_STRIDE floats per plane (e1, -c.e1, e2, -c.e2), in the binning coordinates.
 /// Plane (i, j), row i * q + j: azimuth theta_i = -pi/2 + i pi/p, elevation phi_j = j pi/(2q),

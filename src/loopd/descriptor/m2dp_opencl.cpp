@@ -95,7 +95,7 @@ M2dpOpenCl::M2dpOpenCl(const M2dpConfig& config) : config_(config), state_(std::
     error_ = "clCreateProgramWithSource: " + opencl_error_string(err);
     return;
   }
-  const std::string options = "-cl-std=CL1.2 -cl-mad-enable -D M2DP_L=" + std::to_string(config.num_rings_l) +
+  const std::string options = "-cl-std=CL1.2 -D M2DP_L=" + std::to_string(config.num_rings_l) +
                               " -D M2DP_T=" + std::to_string(config.num_sectors_t) + " -D M2DP_NPLANES=" + std::to_string(config.num_planes());
   err = clBuildProgram(s.program, 1, &id, options.c_str(), nullptr, nullptr);
   if (err != CL_SUCCESS) {
@@ -116,7 +116,7 @@ M2dpOpenCl::M2dpOpenCl(const M2dpConfig& config) : config_(config), state_(std::
     }
   }
   const std::size_t num_planes = static_cast<std::size_t>(config.num_planes()), num_bins = static_cast<std::size_t>(config.num_bins());
-  if ((err = s.ensure(s.frame, 12 * sizeof(float), CL_MEM_READ_ONLY)) != CL_SUCCESS ||
+  if ((err = s.ensure(s.frame, M2DP_FRAME_FLOATS * sizeof(float), CL_MEM_READ_ONLY)) != CL_SUCCESS ||
       (err = s.ensure(s.planes, num_planes * M2DP_PLANE_STRIDE * sizeof(float), CL_MEM_READ_ONLY)) != CL_SUCCESS ||
       (err = s.ensure(s.params, (M2DP_MAX_RINGS + M2DP_MAX_SECTORS) * sizeof(float), CL_MEM_READ_ONLY)) != CL_SUCCESS ||
       (err = s.ensure(s.signature, num_planes * num_bins * sizeof(std::uint32_t), CL_MEM_WRITE_ONLY)) != CL_SUCCESS) {
@@ -210,13 +210,17 @@ M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
     result.error = e;
     return result;
   }
-  const Eigen::Matrix3d unsigned_axes = frame_axes(first, config_.frame);
+  const Eigen::Matrix3d pca = pca_axes(first.covariance);
+  const Eigen::Matrix3d sign_axes = frame_axes(first.covariance, config_.frame);
 
-  // Pass 2: extent and third moments about the centroid.
-  float frame[12];
+  // Pass 2: extent, third moments along the sign axes, centred moments in the PCA axes.
+  float frame[M2DP_FRAME_FLOATS];
   for (int i = 0; i < 3; ++i) frame[i] = static_cast<float>(first.centroid(i));
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) frame[3 + 3 * r + c] = static_cast<float>(unsigned_axes(r, c));
+    for (int c = 0; c < 3; ++c) {
+      frame[3 + 3 * r + c] = static_cast<float>(pca(r, c));
+      frame[12 + 3 * r + c] = static_cast<float>(sign_axes(r, c));
+    }
   if ((err = clEnqueueWriteBuffer(s.queue, s.frame.mem, CL_FALSE, 0, sizeof(frame), frame, 0, nullptr, nullptr)) != CL_SUCCESS)
     return fail("upload frame", err);
   set_arg(s.k_extent, 0, s.xs.mem);
@@ -242,22 +246,23 @@ M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
     second.second(1, 1) += e[7];
     second.second(1, 2) += e[8];
     second.second(2, 2) += e[9];
+    second.first += Eigen::Vector3d(e[10], e[11], e[12]);
   }
   second.second(1, 0) = second.second(0, 1);
   second.second(2, 0) = second.second(0, 2);
   second.second(2, 1) = second.second(1, 2);
-  if (std::string e = check_second(second); !e.empty()) {
-    result.error = e;
+  const Frame f = finish_frame(first, pca, sign_axes, second, config_.frame);
+  if (!f.error.empty()) {
+    result.error = f.error;
     return result;
   }
-  const Eigen::Matrix3d axes = signed_axes(unsigned_axes, second, config_.frame);
-  result.axes = axes;
-  result.centroid = first.centroid + shift.cast<double>();
-  result.max_radius = std::sqrt(second.max_r2);
+  result.axes = f.axes;
+  result.centroid = f.centroid + shift.cast<double>();
+  result.max_radius = std::sqrt(f.max_r2);
 
   // Pass 3: all planes x all chunks in one launch, then the per-chunk histograms summed on the device.
-  const std::vector<float> planes = plane_table(config_, axes, first.centroid);
-  const std::vector<float> params = bin_params(config_, second.max_r2);
+  const std::vector<float> planes = plane_table(config_, f.axes, f.centroid);
+  const std::vector<float> params = bin_params(config_, f.max_r2);
   if ((err = clEnqueueWriteBuffer(s.queue, s.planes.mem, CL_FALSE, 0, planes.size() * sizeof(float), planes.data(), 0, nullptr, nullptr)) !=
           CL_SUCCESS ||
       (err = clEnqueueWriteBuffer(s.queue, s.params.mem, CL_FALSE, 0, params.size() * sizeof(float), params.data(), 0, nullptr, nullptr)) !=
