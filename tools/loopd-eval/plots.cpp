@@ -66,7 +66,7 @@ std::vector<std::string> write_plots(const std::string& dir, const EvalInput& in
   }
 
   std::ostringstream traj_plot, pr_plot;
-  traj_plot << "set title 'Trajectories (top view): " << rep.closure.accepted << " accepted loops, "
+  traj_plot << "reset\nset title 'Trajectories (top view): " << rep.closure.accepted << " accepted loops, "
             << rep.closure.correct << " correct'\n"
             << "set xlabel 'x [m]'\nset ylabel 'y [m]'\nset size ratio -1\nset key outside right top\nset grid\n"
             << "plot " << quote(d + "ground_truth.dat") << " with lines lw 2 lc rgb '#202020' title 'ground truth'";
@@ -83,10 +83,10 @@ std::vector<std::string> write_plots(const std::string& dir, const EvalInput& in
 
   const bool have_pr = !rep.detection.pr_curve.empty();
   if (have_pr) {
-    pr_plot << "set title sprintf('Loop detection: precision-recall over the descriptor threshold (F1 max %.3f)', "
+    pr_plot << "reset\nset title sprintf('Precision-recall over the descriptor threshold (F1 max %.3f)', "
             << rep.detection.f1_max << ")\n"
             << "set xlabel 'recall'\nset ylabel 'precision'\nset xrange [0:1.02]\nset yrange [0:1.02]\nset grid\n"
-            << "set key left bottom\n"
+            << "set key inside left bottom box opaque\n"
             << "plot " << quote(d + "pr_curve.dat") << " using 3:2 with linespoints pt 7 ps 0.6 lw 2 lc rgb '#3060d0' "
             << "title 'descriptor threshold sweep', '-' with points pt 9 ps 2 lc rgb '#e00000' title 'accepted loops'\n"
             << rep.detection.recall << ' ' << rep.detection.precision << "\ne\n";

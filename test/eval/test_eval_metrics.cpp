@@ -1,0 +1,174 @@
+// Metrics of loopd_eval on hand-built trajectories with hand-computed answers.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <random>
+
+#include "loopd/eval/evaluation.hpp"
+#include "loopd/eval/loop_ground_truth.hpp"
+#include "loopd/eval/odometry_drift.hpp"
+#include "loopd/eval/pose_error.hpp"
+
+using namespace loopd;
+
+namespace {
+// Out-and-back route: frames 0..149 drive x = 0..149 (y = 0); frames 150..299 come back x = 149..0 on y = 0.5
+// (z = back_z). Return frame f at x = 299 - f meets outbound frame x at distance 0.5 m, frame gap 299 - 2x.
+std::vector<Eigen::Vector3d> out_and_back(double back_z) {
+  std::vector<Eigen::Vector3d> p;
+  for (int i = 0; i < 150; ++i) p.emplace_back(i, 0.0, 0.0);
+  for (int i = 150; i < 300; ++i) p.emplace_back(299 - i, 0.5, back_z);
+  return p;
+}
+std::vector<std::int64_t> iota_frames(std::size_t n) {
+  std::vector<std::int64_t> f(n);
+  for (std::size_t i = 0; i < n; ++i) f[i] = static_cast<std::int64_t>(i);
+  return f;
+}
+}  // namespace
+
+TEST_CASE("loop ground truth: 1 m and more than 100 frames apart (Vlaminck 2019, 5.3)") {
+  const auto pos = out_and_back(0.0);
+  LoopGroundTruthConfig cfg;  // 1 m, 100 frames
+  const LoopGroundTruth gt = compute_loop_ground_truth(pos, iota_frames(pos.size()), cfg);
+  // Return frames with x <= 99 (gap 299 - 2x > 100), i.e. frames 200..299, each with exactly one partner.
+  CHECK(gt.num_queries == 100);
+  CHECK(gt.num_pairs == 100);
+  CHECK_FALSE(gt.revisit[199]);
+  REQUIRE(gt.revisit[200]);
+  CHECK(gt.partners[200] == std::vector<int>{99});
+  CHECK(gt.partners[299] == std::vector<int>{0});
+  REQUIRE(gt.stretches.size() == 1);
+  CHECK(gt.stretches[0] == std::make_pair(200, 299));
+
+  cfg.min_frame_gap = 250;  // only x < 24.5 remain
+  CHECK(compute_loop_ground_truth(pos, iota_frames(pos.size()), cfg).num_queries == 25);
+  cfg = {};
+  cfg.max_distance = 0.4;  // 0.5 m lane offset: no loop
+  CHECK(compute_loop_ground_truth(pos, iota_frames(pos.size()), cfg).num_pairs == 0);
+}
+
+TEST_CASE("loop ground truth: 3D versus ground-plane distance") {
+  const auto pos = out_and_back(2.0);  // return leg 2 m higher (KITTI-like height error)
+  LoopGroundTruthConfig cfg;
+  CHECK(compute_loop_ground_truth(pos, iota_frames(pos.size()), cfg).num_pairs == 0);
+  cfg.planar = true;
+  CHECK(compute_loop_ground_truth(pos, iota_frames(pos.size()), cfg).num_pairs == 100);
+  CHECK(place_distance({0, 0, 0}, {3, 4, 12}, cfg) == Approx(5.0));
+  cfg.planar = false;
+  CHECK(place_distance({0, 0, 0}, {3, 4, 12}, cfg) == Approx(13.0));
+  cfg.min_frame_gap = -1;
+  CHECK(cfg.validate().has_value());
+}
+
+TEST_CASE("closest-pose error matches a hand computation (Vlaminck 2019, Table 4)") {
+  std::vector<Eigen::Vector3d> gt;
+  for (int i = 0; i <= 10; ++i) gt.emplace_back(i, 0, 0);
+  const std::vector<Eigen::Vector3d> est = {{0.5, 1, 0}, {3, -2, 0}, {20, 0, 0}, {7, 0, 0.25}};
+  const auto e = closest_pose_errors(est, gt);
+  REQUIRE(e.size() == 4);
+  CHECK(e[0] == Approx(std::sqrt(1.25)));
+  CHECK(e[1] == Approx(2.0));
+  CHECK(e[2] == Approx(10.0));
+  CHECK(e[3] == Approx(0.25));
+  const ErrorStats s = error_stats(e);
+  CHECK(s.mean == Approx((std::sqrt(1.25) + 2.0 + 10.0 + 0.25) / 4));
+  CHECK(s.median == Approx((std::sqrt(1.25) + 2.0) / 2));
+  CHECK(s.max == Approx(10.0));
+
+  // Brute force agrees on random data.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-50, 50);
+  std::vector<Eigen::Vector3d> a, b;
+  for (int i = 0; i < 300; ++i) a.emplace_back(u(rng), u(rng), 0.1 * u(rng));
+  for (int i = 0; i < 200; ++i) b.emplace_back(u(rng), u(rng), 0.1 * u(rng));
+  const auto fast = closest_pose_errors(b, a);
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    double best = 1e9;
+    for (const auto& g : a) best = std::min(best, (g - b[i]).norm());
+    REQUIRE(fast[i] == Approx(best).margin(1e-12));
+  }
+}
+
+TEST_CASE("Umeyama alignment recovers a known transform; ATE of an aligned copy is zero") {
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> u(-20, 20);
+  std::vector<Eigen::Vector3d> src, dst;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(2.1, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(12.0, -4.5, 3.25);
+  for (int i = 0; i < 50; ++i) {
+    src.emplace_back(u(rng), u(rng), u(rng));
+    dst.push_back(T * src.back());
+  }
+  const Eigen::Isometry3d R = umeyama_alignment(src, dst);
+  CHECK((R.translation() - T.translation()).norm() < 1e-9);
+  CHECK(rotation_angle(Eigen::Isometry3d(R.linear().transpose() * T.linear())) < 1e-9);
+  CHECK(ate_rmse(src, dst) < 1e-9);
+
+  // With noise: still within a few millimetres, and ATE about the noise level.
+  std::normal_distribution<double> n(0.0, 0.01);
+  for (auto& p : dst) p += Eigen::Vector3d(n(rng), n(rng), n(rng));
+  const Eigen::Isometry3d Rn = umeyama_alignment(src, dst);
+  CHECK((Rn.translation() - T.translation()).norm() < 0.01);
+  CHECK(ate_rmse(src, dst) == Approx(0.01 * std::sqrt(3.0)).epsilon(0.3));
+
+  // Scale variant.
+  double s = 0;
+  std::vector<Eigen::Vector3d> scaled;
+  for (const auto& p : src) scaled.push_back(T * (2.5 * p));
+  umeyama_alignment(src, scaled, &s, true);
+  CHECK(s == Approx(2.5));
+}
+
+TEST_CASE("relative error and pose lookup by utime") {
+  const Eigen::Isometry3d a = make_isometry(1, 2, 3, 0.3);
+  const Eigen::Isometry3d b = a * make_isometry(0.3, 0.4, 0, 2.0 * M_PI / 180.0);
+  const RelativeError e = relative_error(b, a);
+  CHECK(e.translation == Approx(0.5));
+  CHECK(e.rotation_deg == Approx(2.0));
+
+  std::vector<StampedPose> poses(3);
+  for (int i = 0; i < 3; ++i) {
+    poses[static_cast<std::size_t>(i)].utime = 1000000 + i * 100000;
+    poses[static_cast<std::size_t>(i)].T_world_sensor = make_isometry(10.0 * i, 0, 0, 0);
+  }
+  CHECK(pose_at(poses, 1100000)->translation().x() == Approx(10.0));
+  CHECK(pose_at(poses, 1125000)->translation().x() == Approx(12.5));
+  CHECK(pose_at(poses, 1250000, 1000000, 100000)->translation().x() == Approx(20.0));  // nearest, 50 ms after
+  CHECK_FALSE(pose_at(poses, 1500000, 1000000, 100000).has_value());
+}
+
+TEST_CASE("precision-recall curve over the descriptor threshold") {
+  // Distances, truth and gt query keyframe: two true detections of query 5, one of query 7, two false.
+  const std::vector<double> d = {0.4, 0.1, 0.2, 0.3, 0.2};
+  const std::vector<bool> t = {true, true, false, true, true};
+  const std::vector<int> q = {9, 5, -1, 5, 7};
+  const auto c = precision_recall_curve(d, t, q, 4);
+  REQUIRE(c.size() == 4);  // thresholds 0.1, 0.2 (tie), 0.3, 0.4
+  CHECK(c[0].precision == Approx(1.0));
+  CHECK(c[0].recall == Approx(0.25));
+  CHECK(c[1].threshold == Approx(0.2));
+  CHECK(c[1].precision == Approx(2.0 / 3.0));
+  CHECK(c[1].recall == Approx(0.5));
+  CHECK(c[2].recall == Approx(0.5));  // a second detection of query 5 adds no recall
+  CHECK(c[2].precision == Approx(0.75));
+  CHECK(c[3].recall == Approx(0.75));
+  CHECK(c[3].precision == Approx(0.8));
+}
+
+TEST_CASE("injected odometry drift is deterministic and grows with distance") {
+  std::vector<Eigen::Isometry3d> gt;
+  for (int i = 0; i < 500; ++i) gt.push_back(make_isometry(1.0 * i, 0, 0, 0));
+  OdometryDriftConfig cfg;
+  const auto a = inject_odometry_drift(gt, cfg);
+  const auto b = inject_odometry_drift(gt, cfg);
+  REQUIRE(a.poses.size() == 500);
+  CHECK(a.poses[0].isApprox(gt[0]));
+  CHECK(a.poses.back().isApprox(b.poses.back()));
+  const double e100 = (a.poses[100].translation() - gt[100].translation()).norm();
+  const double e499 = (a.poses[499].translation() - gt[499].translation()).norm();
+  CHECK(e499 > e100);
+  CHECK(e499 > 2.0);   // 0.005 deg/m heading bias over 500 m: about 11 m lateral, plus 1% scale: 5 m
+  CHECK(e499 < 30.0);
+  CHECK(a.residuals[1] > cfg.residual_base);
+}

@@ -1,0 +1,277 @@
+// loopd-eval on a hand-built drive + results log with known true and false loops: the metrics library and the
+// loopd-eval binary must both give the hand-counted precision / recall.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <unistd.h>
+
+#include "loopd/eval/evaluation.hpp"
+
+#if __has_include(<loopd/loop_event_t.hpp>) && __has_include("lcm_log.hpp")
+#define LOOPD_EVAL_TEST_HAS_LCM 1
+#include <loopd/loop_event_t.hpp>
+#include <loopd/trajectory_t.hpp>
+
+#include "lcm_log.hpp"
+#include "message_convert.hpp"
+#endif
+
+using namespace loopd;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::int64_t kUtime0 = 1000000;
+constexpr std::int64_t kPeriod = 100000;
+std::int64_t utime_of(int frame) { return kUtime0 + frame * kPeriod; }
+
+// Out-and-back route (see test_eval_metrics.cpp): return frame f at x = 299 - f is a true loop with outbound frame
+// 299 - f for f >= 200 (0.5 m apart, gap > 100). Heading along the route, so T_match_query has a 180 deg yaw.
+Eigen::Isometry3d gt_pose(int f) {
+  if (f < 150) return make_isometry(f, 0.0, 0.0, 0.0);
+  return make_isometry(299 - f, 0.5, 0.0, M_PI);
+}
+
+struct HandLoop {
+  int query, match;
+  LoopStatus status;
+  double descriptor_distance;
+  double offset;  // [m] error put into T_match_query; < 0: T_match_query = identity
+  const char* stage;
+};
+// Known verdicts:
+//  250->49 accepted, true, exact transform           -> TP, correct
+//  260->39 accepted, true, transform 2 m off          -> TP, wrong
+//  280->100 accepted, FALSE (81 m apart), T = identity -> FP, wrong
+//  120->10 accepted, FALSE (110 m apart), exact T     -> FP, but a CORRECT closure (judged whatever the distance)
+//  270->29 rejected, true                             -> only in the PR curve
+//  290->150 rejected, false                           -> only in the PR curve
+//  295->5 gate rejection, no descriptor               -> nowhere
+const HandLoop kLoops[] = {
+    {250, 49, LoopStatus::kAccepted, 0.10, 0.0, "accepted"},  {260, 39, LoopStatus::kAccepted, 0.20, 2.0, "accepted"},
+    {280, 100, LoopStatus::kAccepted, 0.30, -1.0, "accepted"}, {120, 10, LoopStatus::kAccepted, 0.25, 0.0, "accepted"},
+    {270, 29, LoopStatus::kRejected, 0.15, 0.0, "gicp"},
+    {290, 150, LoopStatus::kRejected, 0.50, 0.0, "fourpcs"},  {295, 5, LoopStatus::kRejected, -1.0, 0.0, "gate"},
+};
+
+EvalInput build_input() {
+  EvalInput in;
+  for (int f = 0; f < 300; ++f) {
+    StampedPose g;
+    g.utime = utime_of(f);
+    g.T_world_sensor = gt_pose(f);
+    in.ground_truth.push_back(g);
+    // Odometry: a constant heading drift of 0.1 deg per frame about the start.
+    StampedPose o = g;
+    o.T_world_sensor = make_isometry(0, 0, 0, f * 0.1 * M_PI / 180.0) * g.T_world_sensor;
+    in.odometry.push_back(o);
+    in.scan_utimes.push_back(g.utime);
+    KeyframePose k;
+    k.utime = g.utime;
+    k.T_map_sensor = g.T_world_sensor;  // a perfect correction
+    in.corrected.push_back(k);
+  }
+  std::int64_t id = 0;
+  for (const auto& h : kLoops) {
+    LoopRecord r;
+    r.event_id = id++;
+    r.query_utime = utime_of(h.query);
+    r.match_utime = utime_of(h.match);
+    r.status = h.status;
+    r.stage = h.stage;
+    r.descriptor_distance = h.descriptor_distance;
+    r.T_match_query = gt_pose(h.match).inverse() * gt_pose(h.query);
+    if (h.offset < 0)
+      r.T_match_query = Eigen::Isometry3d::Identity();
+    else
+      r.T_match_query.translation().x() += h.offset;
+    r.ms_descriptor = 10.0 + static_cast<double>(id);
+    r.ms_total = 100.0 * static_cast<double>(id);
+    in.loops.push_back(r);
+  }
+  return in;
+}
+
+void check_hand_counts(double precision, double recall, int tp, int fp, int fn) {
+  CHECK(tp == 2);
+  CHECK(fp == 2);
+  CHECK(fn == 98);  // 100 ground-truth query keyframes (frames 200..299), two detected
+  CHECK(precision == Approx(0.5));
+  CHECK(recall == Approx(0.02));
+}
+
+}  // namespace
+
+TEST_CASE("metrics library: hand-built loops give the hand-counted detection and closure figures") {
+  const EvalInput in = build_input();
+  const EvalReport rep = evaluate(in, EvalConfig{});
+  REQUIRE(rep.ok);
+  CHECK(rep.keyframe_utimes.size() == 300);
+  CHECK(rep.detection.gt_queries == 100);
+  check_hand_counts(rep.detection.precision, rep.detection.recall, rep.detection.true_positives,
+                    rep.detection.false_positives, rep.detection.false_negatives);
+  // PR curve over the 6 pairs with a descriptor distance: 0.10 T, 0.15 T, 0.20 T, 0.25 F, 0.30 F, 0.50 F.
+  REQUIRE(rep.detection.pr_curve.size() == 6);
+  CHECK(rep.detection.pr_curve[2].recall == Approx(0.03));
+  CHECK(rep.detection.pr_curve[2].precision == Approx(1.0));
+  CHECK(rep.detection.pr_curve[5].precision == Approx(0.5));
+  CHECK(rep.detection.max_recall == Approx(0.03));
+  CHECK(rep.detection.precision_at_max_recall == Approx(1.0));
+  CHECK(rep.detection.f1_max == Approx(2 * 0.03 / 1.03));
+  CHECK(rep.detection.f1_max_threshold == Approx(0.2));
+  // Closure: 4 accepted, 250->49 and 120->10 within 0.5 m / 2 deg.
+  CHECK(rep.closure.accepted == 4);
+  CHECK(rep.closure.correct == 2);
+  CHECK(rep.closure.precision == Approx(0.5));
+  CHECK(rep.closure.recall == Approx(0.03));          // queries 250, 260, 280 are all revisits
+  CHECK(rep.closure.recall_correct == Approx(0.01));
+  CHECK(rep.closure.stretches == 1);
+  CHECK(rep.closure.stretches_closed == 1);
+  // Pose error: the corrected trajectory is ground truth; odometry drifts.
+  CHECK(rep.error_after.mean < 1e-9);
+  CHECK(rep.ate_after < 1e-9);
+  CHECK(rep.error_before.mean > 1.0);
+  CHECK(rep.ate_before > 1.0);
+  CHECK(rep.ms_descriptor.count == 7);
+  CHECK(rep.ms_total.max == Approx(700.0));
+
+  // Closure tolerance is configurable: 2.5 m accepts the 2 m-off loop.
+  EvalConfig loose;
+  loose.closure_max_translation = 2.5;
+  CHECK(evaluate(in, loose).closure.correct == 3);
+}
+
+TEST_CASE("metrics library: keyframes after the last trajectory revision are added at its spacing") {
+  EvalInput in = build_input();
+  in.corrected.clear();
+  for (int f = 0; f <= 200; ++f) in.corrected.push_back({utime_of(f), gt_pose(f)});
+  in.loops.clear();
+  const EvalReport rep = evaluate(in, EvalConfig{});
+  REQUIRE(rep.ok);
+  CHECK(rep.keyframe_utimes.size() == 300);  // 0..200 listed, 201..299 added
+  CHECK(rep.detection.gt_queries == 100);    // without the tail only frame 200 would count
+  CHECK_FALSE(rep.warnings.empty());
+}
+
+#ifdef LOOPD_EVAL_TEST_HAS_LCM
+TEST_CASE("loopd-eval binary: same figures from LCM logs, JSON as the last line, pictures written") {
+  const EvalInput in = build_input();
+  const fs::path dir = fs::temp_directory_path() / ("loopd_test_eval_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string drive = (dir / "drive.lcmlog").string(), results = (dir / "results.lcmlog").string();
+  std::string err;
+  {
+    LogWriter w;
+    REQUIRE(w.open(drive, &err));
+    for (std::size_t i = 0; i < in.ground_truth.size(); ++i) {
+      const std::int64_t u = in.ground_truth[i].utime;
+      REQUIRE(w.write_message(channels::kGroundTruth, u, to_message(in.ground_truth[i], static_cast<std::int64_t>(i))));
+      REQUIRE(w.write_message(channels::kPose, u, to_message(in.odometry[i], static_cast<std::int64_t>(i))));
+      PointCloud c;
+      c.points = {{1.f, 2.f, 3.f}, {4.f, 5.f, 6.f}};
+      REQUIRE(w.write_message(channels::kScan, u, to_message(c, u, static_cast<std::int64_t>(i), "lidar")));
+    }
+  }
+  {
+    LogWriter w;
+    REQUIRE(w.open(results, &err));
+    // An older, wrong trajectory revision first: the evaluator must use the LAST one.
+    for (int rev : {0, 1}) {
+      trajectory_t t;
+      t.utime = utime_of(299);
+      t.revision = rev;
+      t.loop_event_id = 0;
+      t.method = "heuristic";
+      to_row_major(Eigen::Isometry3d::Identity(), t.T_map_odom);
+      for (std::size_t i = 0; i < in.corrected.size(); ++i) {
+        keyframe_pose_t k{};
+        k.id = static_cast<std::int64_t>(i);
+        k.utime = in.corrected[i].utime;
+        const Eigen::Isometry3d T = rev == 0 ? in.odometry[i].T_world_sensor : in.corrected[i].T_map_sensor;
+        const Eigen::Quaterniond q(T.linear());
+        for (int a = 0; a < 3; ++a) k.position[a] = T.translation()(a);
+        k.orientation[0] = q.w();
+        k.orientation[1] = q.x();
+        k.orientation[2] = q.y();
+        k.orientation[3] = q.z();
+        t.keyframes.push_back(k);
+      }
+      t.num_keyframes = static_cast<std::int32_t>(t.keyframes.size());
+      if (rev == 1) {
+        for (const auto& l : in.loops) {
+          loop_event_t e{};
+          e.utime = l.query_utime;
+          e.event_id = l.event_id;
+          e.query_utime = l.query_utime;
+          e.match_utime = l.match_utime;
+          e.status = static_cast<std::int8_t>(l.status);
+          e.stage = l.stage;
+          e.reason = "hand-built";
+          e.descriptor_distance = l.descriptor_distance;
+          to_row_major(l.T_match_query, e.T_match_query);
+          e.ms_descriptor = l.ms_descriptor;
+          e.ms_total = l.ms_total;
+          REQUIRE(w.write_message(channels::kLoopEvent, e.utime, e));
+        }
+      }
+      REQUIRE(w.write_message(channels::kTrajectory, t.utime, t));
+    }
+  }
+  const std::string bin = std::string(LOOPD_BINARY_DIR) + "/tools/loopd-eval/loopd-eval";
+  if (!fs::exists(bin)) {
+    WARN("skipped: " << bin << " not built (cmake --build <dir> --target loopd-eval)");
+    return;
+  }
+  const std::string out = (dir / "stdout.txt").string();
+  const std::string cmd = bin + " --drive " + drive + " --results " + results + " --json --quiet --plots " +
+                          (dir / "plots").string() + " --export-tum " + (dir / "tum").string() + " > " + out +
+                          " 2> " + (dir / "stderr.txt").string();
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  std::ifstream f(out);
+  std::string line, last;
+  while (std::getline(f, line))
+    if (!line.empty()) last = line;
+  const auto j = nlohmann::json::parse(last);
+  check_hand_counts(j["precision"], j["recall"], j["true_positives"], j["false_positives"], j["false_negatives"]);
+  CHECK(j["closure_precision"].get<double>() == Approx(0.5));
+  CHECK(j["closure_recall"].get<double>() == Approx(0.03));
+  CHECK(j["stretches_closed"].get<int>() == 1);
+  CHECK(j["trajectory_revision"].get<int>() == 1);
+  CHECK(j["mean_error_after"].get<double>() < 1e-6);  // positions go through LCM doubles: exact to rounding
+  CHECK(j["median_error_before"].get<double>() > 1.0);
+  CHECK(j["mean_error_before"].get<double>() == Approx(evaluate(in, EvalConfig{}).error_before.mean).epsilon(1e-6));
+  CHECK(j["scans"].get<int>() == 300);
+  CHECK(j["timings"]["total"]["max"].get<double>() == Approx(700.0));
+  CHECK(fs::exists(dir / "tum" / "corrected.tum"));
+  if (j["pictures"].empty()) {
+    WARN("no pictures: gnuplot missing? " << j["warnings"].dump());
+  } else {
+    CHECK(fs::file_size(dir / "plots" / "trajectories.png") > 1000);
+    CHECK(fs::file_size(dir / "plots" / "pr_curve.svg") > 1000);
+  }
+
+  // --min-frame-gap 250 keeps only return frames x < 24.5: 25 queries, none detected (x = 49, 39 are out).
+  const std::string cmd2 = bin + " --drive " + drive + " --results " + results + " --json --quiet --min-frame-gap 250 > " +
+                           out + " 2>/dev/null";
+  REQUIRE(std::system(cmd2.c_str()) == 0);
+  std::ifstream f2(out);
+  while (std::getline(f2, line))
+    if (!line.empty()) last = line;
+  const auto j2 = nlohmann::json::parse(last);
+  CHECK(j2["true_positives"].get<int>() == 0);
+  CHECK(j2["false_positives"].get<int>() == 4);
+  CHECK(j2["false_negatives"].get<int>() == 25);
+  if (std::getenv("LOOPD_KEEP_TEST_OUTPUT"))
+    WARN("kept " << dir.string());
+  else
+    fs::remove_all(dir);
+}
+#else
+TEST_CASE("loopd-eval binary (skipped: test not linked to loopd_bridge)") { WARN("skipped: no LCM headers"); }
+#endif
