@@ -89,7 +89,7 @@ TEST_CASE("closest-pose error matches a hand computation (Vlaminck 2019, Table 4
   }
 }
 
-TEST_CASE("Umeyama alignment recovers a known transform; ATE of an aligned copy is zero") {
+TEST_CASE("Umeyama alignment recovers a known transform, ATE of an aligned copy is zero") {
   std::mt19937 rng(42);
   std::uniform_real_distribution<double> u(-20, 20);
   std::vector<Eigen::Vector3d> src, dst;
