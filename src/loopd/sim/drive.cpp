@@ -36,11 +36,12 @@ std::vector<Waypoint> route_waypoints() {
   auto add = [&](int i, int j, int v, bool off = false) { w.push_back({i, j, v, off}); };
   // Visit 0: short loop around block (0..1, 0..1), counter-clockwise.
   add(0, 0, 0); add(1, 0, 0); add(1, 1, 0); add(0, 1, 0);
-  // Visit 1: a loop south-west, then block (0..1, 0..1) clockwise (opposite direction), then back via (1,-1).
-  add(0, 0, 1); add(0, -1, 1); add(-1, -1, 1); add(-1, 0, 1); add(0, 0, 1); add(0, 1, 1); add(1, 1, 1); add(1, 0, 1);
-  add(1, -1, 1); add(0, -1, 1);
-  // Visit 2: long loop around (0..2, 0..2); first edge same direction as visit 0, partly 3 m to the left.
-  add(0, 0, 2, true); add(1, 0, 2); add(2, 0, 2); add(2, 1, 2); add(2, 2, 2); add(1, 2, 2); add(0, 2, 2); add(0, 1, 2);
+  // Visit 1: long loop around (0..2, 0..2), counter-clockwise: (0,0)->(1,0) again in the same direction (first half
+  // 3 m to the left = lane offset), (0,1)->(0,0) again in the same direction.
+  add(0, 0, 1, true); add(1, 0, 1); add(2, 0, 1); add(2, 1, 1); add(2, 2, 1); add(1, 2, 1); add(0, 2, 1); add(0, 1, 1);
+  // Visit 2: turn around through (0,-1), (1,-1), then block (0..1, 0..1) clockwise (opposite direction), back via (1,-1).
+  add(0, 0, 2); add(0, -1, 2); add(1, -1, 2); add(1, 0, 2); add(0, 0, 2); add(0, 1, 2); add(1, 1, 2); add(1, 0, 2);
+  add(1, -1, 2); add(0, -1, 2);
   return w;
 }
 

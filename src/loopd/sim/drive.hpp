@@ -15,11 +15,12 @@ namespace loopd {
 /// @brief Settings of a simulated drive through make_town(seed).
 ///
 /// The route (street nodes (i, j), block ~50-75 m) repeats every lap; a lap has three visits:
-///  - visit 0, short loop around one block: (0,0) E (1,0) N (1,1) W (0,1) S (0,0);
-///  - visit 1, the same block in the opposite direction, entered through a second loop:
-///    (0,0) S (0,-1) W (-1,-1) N (-1,0) E (0,0) N (0,1) E (1,1) S (1,0) S (1,-1) W (0,-1) N (0,0);
-///  - visit 2, long loop: (0,0) E (1,0) E (2,0) N (2,2) W (0,2) S (0,0), the first half of (0,0)->(1,0) driven 3 m to
-///    the left of the usual lane (lane offset), then back to the usual lane (same direction as visit 0).
+///  - visit 0, short loop around one block: (0,0) E (1,0) N (1,1) W (0,1) S (0,0)  (~250 m);
+///  - visit 1, long loop: (0,0) E (1,0) E (2,0) N (2,2) W (0,2) S (0,0) (~500 m); the first half of (0,0)->(1,0) is driven
+///    3 m to the left of the usual lane (lane offset), its second half and (0,1)->(0,0) are same-direction revisits;
+///  - visit 2, turn-around via (0,-1) E (1,-1) N (1,0), then the block of visit 0 in the opposite direction:
+///    (1,0) W (0,0) N (0,1) E (1,1) S (1,0), back via S (1,-1) W (0,-1) N (0,0) (~620 m).
+/// A 1000-scan drive at 1 m per scan covers visits 0, 1 and the first opposite-direction edge; a lap is ~1.37 km.
 /// Parked cars marked movable change state with the visit (later laps continue counting visits: lap * 3 + v).
 struct DriveConfig {
   std::string sensor = "hdl64";      ///< lidar model name (lidar_model_from_name)
@@ -33,7 +34,7 @@ struct DriveConfig {
   double corner_radius = 9.0;        ///< [m] corner rounding at intersections
   std::int64_t start_utime = 1700000000000000;  ///< [us]
   // Odometry drift (applied to ground-truth increments).
-  double heading_bias_deg_per_100m = 0.2;  ///< systematic yaw drift [deg / 100 m]
+  double heading_bias_deg_per_100m = 0.5;  ///< systematic yaw drift [deg / 100 m]
   double scale_bias = 0.01;                ///< systematic scale error of translation (1 %)
   double yaw_random_walk_deg = 0.02;       ///< [deg] yaw error per step (heading random walk: sigma grows with sqrt(steps))
   double translation_noise = 0.01;         ///< [m] white translation noise per step (each axis)
