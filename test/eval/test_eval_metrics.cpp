@@ -172,3 +172,38 @@ TEST_CASE("injected odometry drift is deterministic and grows with distance") {
   CHECK(e499 < 30.0);
   CHECK(a.residuals[1] > cfg.residual_base);
 }
+
+#include "loopd/eval/trajectory_io.hpp"
+#include "support/data_dir.hpp"
+
+TEST_CASE("loop ground truth on the real KITTI poses matches the counts in the data README") {
+  LOOPD_REQUIRE_DATA(poses00, "kitti/poses/00.txt");
+  LOOPD_REQUIRE_DATA(poses02, "kitti/poses/02.txt");
+  LOOPD_REQUIRE_DATA(poses05, "kitti/poses/05.txt");
+  LOOPD_REQUIRE_DATA(calib, "kitti/calib/Tr_velo_to_cam_00-02.txt");
+  auto count = [&calib](const std::string& path, bool lidar, bool planar) {
+    std::vector<Eigen::Isometry3d> cam;
+    std::string err;
+    REQUIRE(read_kitti_poses(path, &cam, &err));
+    Eigen::Isometry3d Tr;
+    REQUIRE(read_kitti_calib_tr(calib, &Tr, &err));
+    const auto poses = lidar ? kitti_camera_to_lidar(cam, Tr) : cam;
+    std::vector<Eigen::Vector3d> pos;
+    for (const auto& T : poses) pos.push_back(T.translation());
+    LoopGroundTruthConfig cfg;
+    cfg.planar = planar;
+    cfg.up_axis = lidar ? 2 : 1;  // camera frame: y points down
+    return compute_loop_ground_truth(pos, iota_frames(pos.size()), cfg);
+  };
+  // README (camera positions): 1565 pairs / 556 query frames in 00, 12 in 02 (326 in the ground plane), 853 in 05.
+  const auto g00 = count(poses00, false, false);
+  CHECK(g00.num_pairs == 1565);
+  CHECK(g00.num_queries == 556);
+  CHECK(count(poses02, false, false).num_pairs == 12);
+  CHECK(count(poses02, false, true).num_pairs == 326);
+  CHECK(count(poses05, false, false).num_pairs == 853);
+  // Lidar positions (T_world_velo = Tr^-1 P Tr, what loopd-eval uses) sit 0.27 m from the camera: a few pairs differ.
+  const auto l00 = count(poses00, true, false);
+  CHECK(l00.num_pairs == 1559);
+  CHECK(l00.num_queries == 554);
+}

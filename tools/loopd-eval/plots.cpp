@@ -73,8 +73,9 @@ std::vector<std::string> write_plots(const std::string& dir, const EvalInput& in
   if (file_nonempty(d + "revisits.dat"))
     traj_plot << ", " << quote(d + "revisits.dat")
               << " with points pt 7 ps 0.5 lc rgb '#33aa33' title 'revisited (ground truth)'";
-  traj_plot << ", " << quote(d + "odometry.dat") << " with lines lw 1.5 lc rgb '#3060d0' title 'odometry (before)'"
-            << ", " << quote(d + "corrected.dat") << " with lines lw 1.5 lc rgb '#e08000' title 'corrected (after)'";
+  traj_plot << ", " << quote(d + "odometry.dat") << " with lines lw 1.5 lc rgb '#3060d0' title 'odometry (before)'";
+  if (rep.has_corrected)  // without a correction "after" is the odometry and would hide it
+    traj_plot << ", " << quote(d + "corrected.dat") << " with lines lw 1.5 lc rgb '#e08000' title 'corrected (after)'";
   if (file_nonempty(d + "loops_correct.dat"))
     traj_plot << ", " << quote(d + "loops_correct.dat") << " with lines lw 1 lc rgb '#00a000' title 'accepted loop, correct'";
   if (file_nonempty(d + "loops_wrong.dat"))
