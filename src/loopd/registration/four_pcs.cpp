@@ -1,19 +1,559 @@
+// Plane-based four-point congruent sets (Vlaminck 2019, Sec. 4.2, after Aiger 2008):
+//  1. coplanar bases are taken on planar clusters of the source, from points on their convex hull (wide bases),
+//  2. congruent sets are searched among pairs of points lying on planar clusters of the target, with the affine
+//     invariants r1, r2 (Eq. 1), intermediate points e1, e2 (Eq. 2) matched on a k-d tree and a rigid angle check,
+//  3. one rigid transform per congruent set (closed-form, 4 correspondences),
+//  4. each scored by the largest common point set (LCP) with early termination; the best one wins.
+// No random sampling anywhere: the same input gives the same output on any number of threads.
 #include "loopd/registration/four_pcs.hpp"
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <unordered_set>
+
+#include <nanoflann.hpp>
+
+#include "loopd/core/kdtree.hpp"
+#include "loopd/core/stopwatch.hpp"
+
 namespace loopd {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr float kHorizontalPlaneNz = 0.85f;  // |n_z| above this: a horizontal plane (ground, roofs)
+constexpr double kMinInvariant = 0.08;       // r1, r2 must lie in [kMinInvariant, 1 - kMinInvariant]
+constexpr int kScoreBlock = 8;               // candidates fully scored per block against a fixed best (determinism)
+constexpr int kCheckEvery = 16;              // early-termination check period [points]
+
+inline double deg2rad(double d) { return d * kPi / 180.0; }
+
+// k-d tree for the LCP test (Sec. 4.2.3). The test only asks "is any target point within delta?", so the search
+// stops at the first point inside the delta ball instead of looking for the nearest one.
+class LcpTree {
+ public:
+  explicit LcpTree(const std::vector<Eigen::Vector3f>& pts) : adaptor_{&pts}, tree_(3, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(10)) {
+    if (!pts.empty()) tree_.buildIndex();
+  }
+  bool any_within(const Eigen::Vector3f& q, float radius_sq) const {
+    if (adaptor_.pts->empty()) return false;
+    AnyWithin rs{radius_sq, false};
+    tree_.findNeighbors(rs, q.data(), nanoflann::SearchParams());
+    return rs.found;
+  }
+
+ private:
+  struct Adaptor {
+    const std::vector<Eigen::Vector3f>* pts;
+    std::size_t kdtree_get_point_count() const { return pts->size(); }
+    float kdtree_get_pt(std::size_t i, std::size_t d) const { return (*pts)[i][static_cast<Eigen::Index>(d)]; }
+    template <class B>
+    bool kdtree_get_bbox(B&) const { return false; }
+  };
+  struct AnyWithin {
+    float radius_sq;
+    bool found;
+    bool full() const { return found; }
+    float worstDist() const { return radius_sq; }
+    bool addPoint(float dist, std::uint32_t) {
+      if (dist < radius_sq) found = true;
+      return !found;  // false stops the search
+    }
+  };
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Adaptor>, Adaptor, 3, std::uint32_t>;
+  Adaptor adaptor_;
+  Tree tree_;
+};
+
+struct Base {
+  Eigen::Vector3f p[4];  // a, b, c, d: diagonals ab and cd cross at e
+  float r1 = 0, r2 = 0;  // Eq. (1)
+  float len1 = 0, len2 = 0;
+  float cos_angle = 0;   // between (b - a) and (d - c)
+  float tilt = 0;        // [rad] angle of the base plane normal from the vertical axis, folded to [0, pi/2]
+  float width = 0;
+  int cluster = -1;
+  bool horizontal = false;
+};
+
+struct PoolPoint {
+  Eigen::Vector3f p;
+  int cluster;
+};
+
+struct Pair {
+  int i, j;
+  float dist;
+};
+
+struct Candidate {
+  int q[4];
+  Eigen::Isometry3d T;
+  float error;  // congruence error [m]: diagonal length mismatch + e1/e2 gap
+};
+
+// Coarse pose cell: candidates falling in an already scored cell are near-duplicates (the same wall matched by
+// neighbouring points) and are not scored again.
+std::int64_t pose_cell(const Eigen::Isometry3d& T, double rot_step, double trans_step) {
+  const Eigen::Matrix3d& R = T.linear();
+  const double yaw = std::atan2(R(1, 0), R(0, 0));
+  const double tilt_x = std::atan2(R(2, 1), R(2, 2)), tilt_y = std::asin(std::max(-1.0, std::min(1.0, -R(2, 0))));
+  auto q = [](double v, double step) { return static_cast<std::int64_t>(std::floor(v / step)) & 0x3ff; };
+  const Eigen::Vector3d t = T.translation();
+  return (q(yaw, rot_step) << 50) | (q(tilt_x, 2.5 * rot_step) << 40) | (q(tilt_y, 2.5 * rot_step) << 30) | (q(t.x(), trans_step) << 20) |
+         (q(t.y(), trans_step) << 10) | q(t.z(), trans_step);
+}
+
+inline float plane_tilt(const Eigen::Vector4f& plane) { return std::acos(std::min(1.f, std::abs(plane.z()))); }
+
+// Closest points of lines a + t (b - a) and c + s (d - c); false when (nearly) parallel.
+bool line_intersection(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c, const Eigen::Vector3f& d, float* t,
+                       float* s, float* gap) {
+  const Eigen::Vector3f u = b - a, v = d - c, w = a - c;
+  const float uu = u.dot(u), uv = u.dot(v), vv = v.dot(v), uw = u.dot(w), vw = v.dot(w);
+  const float den = uu * vv - uv * uv;
+  if (den <= 1e-6f * uu * vv) return false;
+  *t = (uv * vw - vv * uw) / den;
+  *s = (uu * vw - uv * uw) / den;
+  *gap = ((a + *t * u) - (c + *s * v)).norm();
+  return true;
+}
+
+// Wide coplanar bases on one planar cluster: for direction pairs (0/90, 30/120, 60/150 deg) in the plane, the hull
+// points extreme along each direction form the two diagonals; they cross inside the hull (Sec. 4.2.1: "points close
+// to the convex hull").
+void bases_for_cluster(const Cluster& cl, int cluster_index, const FourPcsConfig& cfg, std::vector<Base>* out) {
+  const auto& h = cl.hull;
+  if (h.size() < 4) return;
+  const Eigen::Vector3f n = cl.plane.head<3>();
+  Eigen::Vector3f u = (h[0] - cl.centroid);
+  // In-plane axes: u along the major extent (farthest hull point from the centroid), v = n x u.
+  float best = -1;
+  for (const auto& p : h) {
+    const Eigen::Vector3f d = p - cl.centroid - n * n.dot(p - cl.centroid);
+    if (d.squaredNorm() > best) {
+      best = d.squaredNorm();
+      u = d;
+    }
+  }
+  if (best <= 0) return;
+  u.normalize();
+  const Eigen::Vector3f v = n.cross(u).normalized();
+  for (int k = 0; k < 3; ++k) {
+    const double ang = deg2rad(30.0 * k);
+    const Eigen::Vector3f d1 = static_cast<float>(std::cos(ang)) * u + static_cast<float>(std::sin(ang)) * v;
+    const Eigen::Vector3f d2 = n.cross(d1);
+    int imin1 = 0, imax1 = 0, imin2 = 0, imax2 = 0;
+    for (int i = 1; i < static_cast<int>(h.size()); ++i) {
+      const auto& p = h[static_cast<std::size_t>(i)];
+      if (p.dot(d1) < h[static_cast<std::size_t>(imin1)].dot(d1)) imin1 = i;
+      if (p.dot(d1) > h[static_cast<std::size_t>(imax1)].dot(d1)) imax1 = i;
+      if (p.dot(d2) < h[static_cast<std::size_t>(imin2)].dot(d2)) imin2 = i;
+      if (p.dot(d2) > h[static_cast<std::size_t>(imax2)].dot(d2)) imax2 = i;
+    }
+    const int ids[4] = {imin1, imax1, imin2, imax2};
+    bool distinct = true;
+    for (int x = 0; x < 4; ++x)
+      for (int y = x + 1; y < 4; ++y) distinct = distinct && ids[x] != ids[y];
+    if (!distinct) continue;
+    Base b;
+    for (int x = 0; x < 4; ++x) b.p[x] = h[static_cast<std::size_t>(ids[x])];
+    b.len1 = (b.p[1] - b.p[0]).norm();
+    b.len2 = (b.p[3] - b.p[2]).norm();
+    b.width = std::min(b.len1, b.len2);
+    if (b.width < cfg.min_base_width) continue;
+    float t = 0, s = 0, gap = 0;
+    if (!line_intersection(b.p[0], b.p[1], b.p[2], b.p[3], &t, &s, &gap)) continue;
+    if (t < kMinInvariant || t > 1 - kMinInvariant || s < kMinInvariant || s > 1 - kMinInvariant) continue;
+    if (gap > cfg.coplanar_tolerance) continue;
+    b.r1 = t;
+    b.r2 = s;
+    b.cos_angle = (b.p[1] - b.p[0]).normalized().dot((b.p[3] - b.p[2]).normalized());
+    b.tilt = plane_tilt(cl.plane);
+    b.horizontal = std::abs(cl.plane.z()) > kHorizontalPlaneNz;
+    b.cluster = cluster_index;
+    bool duplicate = false;
+    for (const auto& o : *out)
+      if (o.cluster == cluster_index && (o.p[0] - b.p[0]).norm() + (o.p[1] - b.p[1]).norm() + (o.p[2] - b.p[2]).norm() + (o.p[3] - b.p[3]).norm() < 0.5f)
+        duplicate = true;
+    if (!duplicate) out->push_back(b);
+  }
+}
+
+// Bases ranked by width and spread over planes: round-robin over planes (each plane's widest first), non-horizontal
+// planes before horizontal ones. A horizontal plane such as the ground is range-limited and flat: its bases match
+// at any yaw, so they are only a last resort.
+std::vector<Base> select_bases(const Segmentation& seg, const FourPcsConfig& cfg) {
+  std::vector<std::vector<Base>> per_plane;
+  for (int i = 0; i < static_cast<int>(seg.clusters.size()); ++i) {
+    const auto& cl = seg.clusters[static_cast<std::size_t>(i)];
+    if (!cl.planar) continue;
+    std::vector<Base> b;
+    bases_for_cluster(cl, i, cfg, &b);
+    if (b.empty()) continue;
+    std::stable_sort(b.begin(), b.end(), [](const Base& x, const Base& y) { return x.width > y.width; });
+    per_plane.push_back(std::move(b));
+  }
+  std::stable_sort(per_plane.begin(), per_plane.end(), [](const std::vector<Base>& x, const std::vector<Base>& y) {
+    if (x[0].horizontal != y[0].horizontal) return !x[0].horizontal;
+    return x[0].width > y[0].width;
+  });
+  std::vector<Base> out;
+  for (int pass = 0; pass < 2; ++pass) {  // pass 0: non-horizontal planes, pass 1: horizontal ones
+    for (std::size_t round = 0;; ++round) {
+      bool any = false;
+      for (const auto& b : per_plane) {
+        if (b[0].horizontal != (pass == 1) || round >= b.size()) continue;
+        any = true;
+        if (static_cast<int>(out.size()) < cfg.max_bases) out.push_back(b[round]);
+      }
+      if (!any || static_cast<int>(out.size()) >= cfg.max_bases) break;
+    }
+  }
+  return out;
+}
+
+// Closed-form rigid transform (Umeyama 1991, no scale) mapping src[i] onto dst[i].
+Eigen::Isometry3d rigid_from_correspondences(const Eigen::Matrix3Xd& src, const Eigen::Matrix3Xd& dst) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.matrix() = Eigen::umeyama(src, dst, false);
+  return T;
+}
+
+// The source points scored for the LCP: a deterministic, spatially scrambled subsample (so that early termination
+// sees a representative prefix), without the ground plane when asked.
+std::vector<Eigen::Vector3f> lcp_sample(const std::vector<Eigen::Vector3f>& pts, const Segmentation& seg, const FourPcsConfig& cfg) {
+  const Cluster* ground = nullptr;
+  if (cfg.lcp_exclude_ground) {
+    for (const auto& cl : seg.clusters)
+      if (cl.planar && std::abs(cl.plane.z()) > kHorizontalPlaneNz && cl.centroid.z() < 0 && (ground == nullptr || cl.num_points > ground->num_points))
+        ground = &cl;
+  }
+  std::vector<const Eigen::Vector3f*> keep;
+  keep.reserve(pts.size());
+  for (const auto& p : pts) {
+    if (ground != nullptr && std::abs(ground->plane.head<3>().dot(p) + ground->plane.w()) < 0.25f) continue;
+    keep.push_back(&p);
+  }
+  if (keep.size() < 16) {  // nothing but ground: score everything
+    keep.clear();
+    for (const auto& p : pts) keep.push_back(&p);
+  }
+  const std::size_t n = keep.size();
+  const std::size_t m = cfg.lcp_sample_points > 0 ? std::min(n, static_cast<std::size_t>(cfg.lcp_sample_points)) : n;
+  // Stride with a step coprime to n: a fixed permutation that visits the cloud in a scattered order.
+  std::size_t step = static_cast<std::size_t>(static_cast<double>(n) * 0.6180339887) | 1u;
+  auto gcd = [](std::size_t a, std::size_t b) {
+    while (b != 0) {
+      const std::size_t t = a % b;
+      a = b;
+      b = t;
+    }
+    return a;
+  };
+  while (n > 1 && gcd(step, n) != 1) ++step;
+  std::vector<Eigen::Vector3f> out;
+  out.reserve(m);
+  std::size_t idx = 0;
+  for (std::size_t k = 0; k < m; ++k) {
+    out.push_back(*keep[idx]);
+    idx = (idx + step) % n;
+  }
+  return out;
+}
+
+// LCP count of T over sample[begin, end) added to `count`; returns -1 as soon as `must_reach` cannot be reached any
+// more (early termination, Sec. 4.2.3).
+int lcp_count(const Eigen::Isometry3d& T, const std::vector<Eigen::Vector3f>& sample, int begin, int end, int count, const LcpTree& tree,
+              float delta_sq, int must_reach) {
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  for (int k = begin; k < end; ++k) {
+    if (tree.any_within(R * sample[static_cast<std::size_t>(k)] + t, delta_sq)) ++count;
+    if ((k + 1 - begin) % kCheckEvery == 0 && count + (end - k - 1) < must_reach) return -1;
+  }
+  return count < must_reach ? -1 : count;
+}
+
+}  // namespace
 
 std::optional<std::string> FourPcsConfig::validate() const {
   if (delta <= 0) return "delta must be > 0";
   if (max_bases < 1) return "max_bases must be >= 1";
+  if (min_base_width <= 0) return "min_base_width must be > 0";
+  if (pair_distance_tolerance <= 0) return "pair_distance_tolerance must be > 0";
+  if (intermediate_tolerance <= 0) return "intermediate_tolerance must be > 0";
+  if (max_angle_deviation_deg <= 0 || max_angle_deviation_deg > 90) return "max_angle_deviation_deg must be in (0, 90]";
+  if (coplanar_tolerance <= 0) return "coplanar_tolerance must be > 0";
+  if (max_tilt_deg <= 0) return "max_tilt_deg must be > 0";
+  if (max_congruent_sets_per_base < 1) return "max_congruent_sets_per_base must be >= 1";
+  if (lcp_sample_points < 0) return "lcp_sample_points must be >= 0";
+  if (prescreen_points < 1) return "prescreen_points must be >= 1";
+  if (max_full_scores < 1) return "max_full_scores must be >= 1";
+  if (refine_candidates < 1) return "refine_candidates must be >= 1";
+  if (refine_iterations < 0) return "refine_iterations must be >= 0";
   if (num_threads < 1) return "num_threads must be >= 1";
+  if (max_scored_per_base < 1) return "max_scored_per_base must be >= 1";
+  if (dedupe_rotation_deg <= 0 || dedupe_translation <= 0) return "dedupe_rotation_deg and dedupe_translation must be > 0";
   return std::nullopt;
 }
 
-FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>&, const Segmentation&, const std::vector<Eigen::Vector3f>&,
-                             const Segmentation&, const FourPcsConfig&) {
-  FourPcsResult r;
-  r.reason = "not implemented yet";
-  return r;
+FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, const Segmentation& source_seg,
+                             const std::vector<Eigen::Vector3f>& target_points, const Segmentation& target_seg,
+                             const FourPcsConfig& cfg) {
+  Stopwatch sw;
+  FourPcsResult res;
+  auto fail = [&](std::string reason) {
+    res.success = false;
+    res.reason = std::move(reason);
+    res.ms = sw.ms();
+    return res;
+  };
+  if (auto err = cfg.validate()) return fail("invalid FourPcsConfig: " + *err);
+  if (source_points.size() < 4 || target_points.size() < 4) return fail("fewer than 4 points in source or target");
+  if (source_seg.num_planar() == 0) return fail("no planar cluster in the source: no coplanar base");
+  if (target_seg.num_planar() == 0) return fail("no planar cluster in the target: no congruent set possible");
+
+  // 1. Coplanar bases on detected planes (Sec. 4.2.1).
+  const std::vector<Base> bases = select_bases(source_seg, cfg);
+  if (bases.empty()) return fail("no coplanar base: planar hulls too narrow or collinear (min_base_width)");
+
+  // Target points that may form congruent sets: hulls (and downsampled members) of planar clusters (Sec. 4.2.2).
+  std::vector<PoolPoint> pool;
+  for (int ci = 0; ci < static_cast<int>(target_seg.clusters.size()); ++ci) {
+    const auto& cl = target_seg.clusters[static_cast<std::size_t>(ci)];
+    if (!cl.planar) continue;
+    for (const auto& p : cl.hull) pool.push_back({p, ci});
+    if (cfg.use_cluster_points)
+      for (const auto& p : cl.points) pool.push_back({p, ci});
+  }
+  // Pairs of pool points lying in one physical plane (same cluster, or clusters of the same plane), sorted by length.
+  const float cop = static_cast<float>(cfg.coplanar_tolerance);
+  const float min_len = static_cast<float>(cfg.min_base_width - cfg.pair_distance_tolerance);
+  const float cos_same_plane = static_cast<float>(std::cos(deg2rad(15.0)));
+  std::vector<Pair> pairs;
+  for (int i = 0; i < static_cast<int>(pool.size()); ++i) {
+    const auto& pi = pool[static_cast<std::size_t>(i)];
+    const Eigen::Vector4f& Pi = target_seg.clusters[static_cast<std::size_t>(pi.cluster)].plane;
+    for (int j = i + 1; j < static_cast<int>(pool.size()); ++j) {
+      const auto& pj = pool[static_cast<std::size_t>(j)];
+      const float d = (pi.p - pj.p).norm();
+      if (d < min_len) continue;
+      if (pj.cluster != pi.cluster) {
+        const Eigen::Vector4f& Pj = target_seg.clusters[static_cast<std::size_t>(pj.cluster)].plane;
+        if (std::abs(Pi.head<3>().dot(Pj.head<3>())) < cos_same_plane) continue;
+        if (std::abs(Pi.head<3>().dot(pj.p) + Pi.w()) > cop || std::abs(Pj.head<3>().dot(pi.p) + Pj.w()) > cop) continue;
+      }
+      pairs.push_back({i, j, d});
+    }
+  }
+  std::stable_sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.dist < b.dist; });
+  if (pairs.empty()) return fail("no pair of target plane points as long as a base diagonal");
+
+  // LCP scoring data (Sec. 4.2.3).
+  const std::vector<Eigen::Vector3f> sample = lcp_sample(source_points, source_seg, cfg);
+  const LcpTree target_tree(target_points);
+  const KdTree3f nn_tree(target_points);  // nearest neighbours for the refinement
+  const float delta_sq = static_cast<float>(cfg.delta * cfg.delta);
+  const int n_sample = static_cast<int>(sample.size());
+  const int prescreen_n = std::min(cfg.prescreen_points, n_sample);
+  const double max_tilt = deg2rad(cfg.max_tilt_deg);
+  const double cos_max_tilt = std::cos(max_tilt);
+  const float cos_angle_tol = static_cast<float>(deg2rad(cfg.max_angle_deviation_deg));
+  const float pair_tol = static_cast<float>(cfg.pair_distance_tolerance);
+  const float e_tol = static_cast<float>(cfg.intermediate_tolerance);
+
+  std::vector<Candidate> all;
+  std::vector<Eigen::Vector3f> e2;
+  std::vector<std::pair<int, int>> e2_pair;
+  std::vector<int> hits;
+  std::vector<Candidate> cands;
+  std::unordered_set<std::int64_t> seen_cells;
+  const double rot_step = deg2rad(cfg.dedupe_rotation_deg), trans_step = cfg.dedupe_translation;
+
+  for (const Base& base : bases) {
+    ++res.bases_tried;
+    // Pairs as long as each diagonal, on target planes whose tilt matches the base's.
+    auto pair_range = [&](float len) {
+      const auto lo = std::lower_bound(pairs.begin(), pairs.end(), len - pair_tol, [](const Pair& p, float v) { return p.dist < v; });
+      const auto hi = std::upper_bound(pairs.begin(), pairs.end(), len + pair_tol, [](float v, const Pair& p) { return v < p.dist; });
+      return std::make_pair(lo, hi);
+    };
+    auto tilt_ok = [&](int pool_index) {
+      const auto& cl = target_seg.clusters[static_cast<std::size_t>(pool[static_cast<std::size_t>(pool_index)].cluster)];
+      return std::abs(plane_tilt(cl.plane) - base.tilt) <= max_tilt;
+    };
+    // Up-axis check at pair level: a diagonal's height change can differ from the base's only by the allowed tilt.
+    const float dz1 = base.p[1].z() - base.p[0].z(), dz2 = base.p[3].z() - base.p[2].z();
+    const float sin_tilt = static_cast<float>(std::sin(std::min(max_tilt, kPi / 2)));
+    auto dz_ok = [&](const Eigen::Vector3f& a, const Eigen::Vector3f& b, float dz_base, float len) {
+      return std::abs((b.z() - a.z()) - dz_base) <= 2.f * sin_tilt * len + pair_tol;
+    };
+    // Intermediate points of the second diagonal, Eq. (2) with r2, both orientations of each pair.
+    e2.clear();
+    e2_pair.clear();
+    const auto r2 = pair_range(base.len2);
+    for (auto it = r2.first; it != r2.second; ++it) {
+      if (!tilt_ok(it->i)) continue;
+      const Eigen::Vector3f& a = pool[static_cast<std::size_t>(it->i)].p;
+      const Eigen::Vector3f& b = pool[static_cast<std::size_t>(it->j)].p;
+      if (dz_ok(a, b, dz2, base.len2)) {
+        e2.push_back(a + base.r2 * (b - a));
+        e2_pair.emplace_back(it->i, it->j);
+      }
+      if (dz_ok(b, a, dz2, base.len2)) {
+        e2.push_back(b + base.r2 * (a - b));
+        e2_pair.emplace_back(it->j, it->i);
+      }
+    }
+    if (e2.empty()) continue;
+    const KdTree3f e2_tree(e2);
+    // Intermediate points of the first diagonal with r1; coincident e1/e2 + rigid check = congruent set.
+    cands.clear();
+    const auto r1 = pair_range(base.len1);
+    const double base_angle = std::acos(std::max(-1.f, std::min(1.f, base.cos_angle)));
+    const float cos_hi = static_cast<float>(std::cos(std::max(0.0, base_angle - cos_angle_tol)));
+    const float cos_lo = static_cast<float>(std::cos(std::min(kPi, base_angle + cos_angle_tol)));
+    // Cross distances of the base: with the angle they make the rigid check exact for 4 points.
+    const float ac = (base.p[2] - base.p[0]).norm(), ad = (base.p[3] - base.p[0]).norm();
+    const float bc = (base.p[2] - base.p[1]).norm(), bd = (base.p[3] - base.p[1]).norm();
+    const float cross_tol = 2.f * pair_tol;
+    Eigen::Matrix3Xd src(3, 4), dst(3, 4);
+    for (int x = 0; x < 4; ++x) src.col(x) = base.p[x].cast<double>();
+    for (auto it = r1.first; it != r1.second && static_cast<int>(cands.size()) < cfg.max_congruent_sets_per_base; ++it) {
+      if (!tilt_ok(it->i)) continue;
+      for (int orient = 0; orient < 2; ++orient) {
+        const int i = orient == 0 ? it->i : it->j, j = orient == 0 ? it->j : it->i;
+        const Eigen::Vector3f& a = pool[static_cast<std::size_t>(i)].p;
+        const Eigen::Vector3f& b = pool[static_cast<std::size_t>(j)].p;
+        if (!dz_ok(a, b, dz1, base.len1)) continue;
+        const Eigen::Vector3f e1 = a + base.r1 * (b - a);
+        hits.clear();
+        e2_tree.radius(e1, e_tol, &hits);
+        std::sort(hits.begin(), hits.end());
+        const Eigen::Vector3f u = (b - a) / it->dist;
+        const Eigen::Vector4f& plane = target_seg.clusters[static_cast<std::size_t>(pool[static_cast<std::size_t>(i)].cluster)].plane;
+        for (int h : hits) {
+          const int k = e2_pair[static_cast<std::size_t>(h)].first, l = e2_pair[static_cast<std::size_t>(h)].second;
+          if (k == i || k == j || l == i || l == j) continue;
+          const Eigen::Vector3f& c = pool[static_cast<std::size_t>(k)].p;
+          const Eigen::Vector3f& d = pool[static_cast<std::size_t>(l)].p;
+          const Eigen::Vector3f cd = d - c;
+          const float cos_t = u.dot(cd) / cd.norm();
+          if (cos_t > cos_hi || cos_t < cos_lo) continue;  // rigid check on the angle (Sec. 4.2.2)
+          if (std::abs((c - a).norm() - ac) > cross_tol || std::abs((d - a).norm() - ad) > cross_tol || std::abs((c - b).norm() - bc) > cross_tol ||
+              std::abs((d - b).norm() - bd) > cross_tol)
+            continue;
+          if (std::abs(plane.head<3>().dot(c) + plane.w()) > cop || std::abs(plane.head<3>().dot(d) + plane.w()) > cop) continue;
+          const float err = std::abs(it->dist - base.len1) + std::abs(cd.norm() - base.len2) + (e1 - e2[static_cast<std::size_t>(h)]).norm();
+          const Candidate cand{{i, j, k, l}, Eigen::Isometry3d::Identity(), err};
+          cands.push_back(cand);
+          if (static_cast<int>(cands.size()) >= cfg.max_congruent_sets_per_base) break;
+        }
+        if (static_cast<int>(cands.size()) >= cfg.max_congruent_sets_per_base) break;
+      }
+    }
+    // Best-congruent first, then near-duplicate poses dropped, then the cap (all deterministic).
+    // The transform (closed form on the 4 correspondences) is computed only for the candidates visited here.
+    std::stable_sort(cands.begin(), cands.end(), [](const Candidate& x, const Candidate& y) { return x.error < y.error; });
+    {
+      std::size_t w = 0;
+      for (std::size_t ci = 0; ci < cands.size() && static_cast<int>(w) < cfg.max_scored_per_base; ++ci) {
+        Candidate& cand = cands[ci];
+        for (int x = 0; x < 4; ++x) dst.col(x) = pool[static_cast<std::size_t>(cand.q[x])].p.cast<double>();
+        cand.T = rigid_from_correspondences(src, dst);
+        if (cand.T.linear().col(2).z() < cos_max_tilt) continue;  // the up axis stays up (ground vehicles)
+        if (seen_cells.insert(pose_cell(cand.T, rot_step, trans_step)).second) cands[w++] = cand;
+      }
+      cands.resize(w);
+    }
+
+    all.insert(all.end(), cands.begin(), cands.end());
+  }
+  res.congruent_sets = static_cast<int>(all.size());
+  if (all.empty()) return fail("no congruent set found for any of " + std::to_string(res.bases_tried) + " bases");
+
+  // LCP of every congruent set's transform (Sec. 4.2.3), in three deterministic steps (the same on any number of
+  // threads, as each candidate's score depends only on the candidate and on bests fixed before its block):
+  //  a) a prescore on the first points of the scrambled sample,
+  //  b) the full LCP of the best prescored ones, with early termination against the best so far,
+  //  c) a closest-point refinement of the leaders; the highest LCP wins (ties: lowest index).
+  const int n_all = static_cast<int>(all.size());
+  std::vector<int> pre(all.size(), 0);
+#pragma omp parallel for num_threads(cfg.num_threads) schedule(dynamic, 8)
+  for (int ci = 0; ci < n_all; ++ci)
+    pre[static_cast<std::size_t>(ci)] = lcp_count(all[static_cast<std::size_t>(ci)].T, sample, 0, prescreen_n, 0, target_tree, delta_sq, 0);
+  std::vector<int> order(all.size());
+  for (int ci = 0; ci < n_all; ++ci) order[static_cast<std::size_t>(ci)] = ci;
+  std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return pre[static_cast<std::size_t>(x)] > pre[static_cast<std::size_t>(y)]; });
+  order.resize(std::min(order.size(), static_cast<std::size_t>(cfg.max_full_scores)));
+
+  std::vector<int> full(order.size(), -1);
+  int best_count = 0;
+  for (std::size_t b0 = 0; b0 < order.size(); b0 += kScoreBlock) {
+    const std::size_t b1 = std::min(order.size(), b0 + kScoreBlock);
+    const int must_reach = best_count;
+#pragma omp parallel for num_threads(cfg.num_threads) schedule(dynamic, 1)
+    for (std::ptrdiff_t oi = static_cast<std::ptrdiff_t>(b0); oi < static_cast<std::ptrdiff_t>(b1); ++oi) {
+      const int ci = order[static_cast<std::size_t>(oi)];
+      full[static_cast<std::size_t>(oi)] =
+          lcp_count(all[static_cast<std::size_t>(ci)].T, sample, prescreen_n, n_sample, pre[static_cast<std::size_t>(ci)], target_tree, delta_sq, must_reach);
+    }
+    for (std::size_t oi = b0; oi < b1; ++oi) best_count = std::max(best_count, full[oi]);
+  }
+  std::vector<int> leaders;
+  for (std::size_t oi = 0; oi < order.size(); ++oi)
+    if (full[oi] >= 0) leaders.push_back(static_cast<int>(oi));
+  std::stable_sort(leaders.begin(), leaders.end(), [&](int x, int y) { return full[static_cast<std::size_t>(x)] > full[static_cast<std::size_t>(y)]; });
+  leaders.resize(std::min(leaders.size(), static_cast<std::size_t>(std::max(1, cfg.refine_candidates))));
+
+  // Closest-point refinement on LCP inliers; a refined pose replaces the raw one only if its LCP is not lower.
+  std::vector<Eigen::Isometry3d> refined_T(leaders.size());
+  std::vector<int> refined_count(leaders.size(), 0);
+#pragma omp parallel for num_threads(cfg.num_threads) schedule(dynamic, 1)
+  for (int li = 0; li < static_cast<int>(leaders.size()); ++li) {
+    const std::size_t oi = static_cast<std::size_t>(leaders[static_cast<std::size_t>(li)]);
+    Eigen::Isometry3d T = all[static_cast<std::size_t>(order[oi])].T;
+    for (int it = 0; it < cfg.refine_iterations; ++it) {
+      std::vector<Eigen::Vector3d> s_in, t_in;
+      for (const auto& p : sample) {
+        const Eigen::Vector3f q = (T * p.cast<double>()).cast<float>();
+        int idx = 0;
+        float d2 = 0;
+        if (nn_tree.nearest(q, &idx, &d2) && d2 <= delta_sq) {
+          s_in.push_back(p.cast<double>());
+          t_in.push_back(target_points[static_cast<std::size_t>(idx)].cast<double>());
+        }
+      }
+      if (s_in.size() < 8) break;
+      Eigen::Matrix3Xd S(3, static_cast<Eigen::Index>(s_in.size())), D(3, static_cast<Eigen::Index>(t_in.size()));
+      for (std::size_t k = 0; k < s_in.size(); ++k) {
+        S.col(static_cast<Eigen::Index>(k)) = s_in[k];
+        D.col(static_cast<Eigen::Index>(k)) = t_in[k];
+      }
+      T = rigid_from_correspondences(S, D);
+    }
+    const int c = lcp_count(T, sample, 0, n_sample, 0, target_tree, delta_sq, 0);
+    const bool better = c >= full[oi];
+    refined_T[static_cast<std::size_t>(li)] = better ? T : all[static_cast<std::size_t>(order[oi])].T;
+    refined_count[static_cast<std::size_t>(li)] = better ? c : full[oi];
+  }
+  Eigen::Isometry3d best_T = refined_T[0];
+  best_count = refined_count[0];
+  for (std::size_t li = 1; li < leaders.size(); ++li)
+    if (refined_count[li] > best_count) {
+      best_count = refined_count[li];
+      best_T = refined_T[li];
+    }
+  res.success = true;
+  res.T_target_source = best_T;
+  res.lcp_points = n_sample;
+  res.lcp_fraction = n_sample > 0 ? static_cast<double>(best_count) / n_sample : 0.0;
+  res.ms = sw.ms();
+  return res;
 }
 
 }  // namespace loopd

@@ -11,17 +11,27 @@ namespace loopd {
 
 /// @brief Settings of the plane-based 4PCS global registration.
 struct FourPcsConfig {
-  double delta = 0.5;               ///< [m] LCP inlier distance, Vlaminck 2019 Sec. 5.2
-  int max_bases = 16;               ///< coplanar bases tried (ranked by width, spread over planes)
-  double min_base_width = 2.0;      ///< [m] shortest allowed base diagonal
-  double pair_distance_tolerance = 0.5;  ///< [m] |q1-q2| must match the base segment length within this (0: use delta)
-  double intermediate_tolerance = 0.5;   ///< [m] e1/e2 coincidence radius (0: use delta)
-  double max_angle_deviation_deg = 8.0;  ///< [deg] rigid check on the angle between the two segments
-  int max_congruent_sets_per_base = 2000;  ///< cap per base (deterministic: first in fixed order)
-  int max_target_pair_points = 1500;  ///< cap on target planar points used to form pairs
-  int lcp_sample_points = 600;        ///< source points scored for LCP (deterministic stride subsample); 0: all
-  double early_stop_lcp = 0.95;       ///< stop trying bases when this LCP fraction is reached
-  int num_threads = 1;                ///< threads for scoring congruent sets (result does not depend on it)
+  double delta = 0.5;                      ///< [m] LCP inlier distance, Vlaminck 2019 Sec. 5.2
+  int max_bases = 12;                      ///< coplanar bases tried (ranked by width, spread over planes)
+  double min_base_width = 2.0;             ///< [m] both base diagonals must be at least this long
+  double pair_distance_tolerance = 0.5;    ///< [m] |q1-q2| must match the base diagonal length within this
+  double intermediate_tolerance = 0.5;     ///< [m] radius for coincident intermediate points e1/e2 (Sec. 4.2.2)
+  double max_angle_deviation_deg = 10.0;   ///< [deg] rigid check on the angle between the two diagonals (Sec. 4.2.2)
+  double coplanar_tolerance = 0.5;         ///< [m] the 4 target points must lie this close to one target plane
+  double max_tilt_deg = 25.0;              ///< [deg] max change of the up axis (ground vehicles: yaw is free, roll/pitch
+                                           ///< small); also how far a target plane's tilt may differ from the base's. 180: off
+  bool use_cluster_points = true;          ///< target pairs also from the downsampled planar-cluster members, not only hulls
+  int max_congruent_sets_per_base = 3000;  ///< cap on congruent sets collected per base (fixed order)
+  int max_scored_per_base = 60;            ///< congruent sets kept per base: lowest congruence error first
+  double dedupe_rotation_deg = 2.0;        ///< [deg] candidates in an already scored pose cell (this yaw step) are skipped
+  double dedupe_translation = 0.4;         ///< [m] translation step of that pose cell
+  int lcp_sample_points = 600;             ///< source points scored for LCP (deterministic scrambled subsample); 0: all
+  int prescreen_points = 64;               ///< every candidate is first scored on this many sample points
+  int max_full_scores = 32;                ///< the best prescored candidates get the full LCP (early-terminated)
+  int refine_candidates = 3;               ///< LCP leaders refined by closest points; the best refined LCP wins
+  bool lcp_exclude_ground = true;          ///< leave the source ground plane out of the LCP (it fits any yaw)
+  int refine_iterations = 3;               ///< closest-point refinements of the best transform on LCP inliers
+  int num_threads = 1;                     ///< threads scoring congruent sets (the result does not depend on it)
 
   /// @brief Empty when valid, otherwise what is wrong.
   std::optional<std::string> validate() const;
@@ -36,6 +46,7 @@ struct FourPcsResult {
   int bases_tried = 0;
   int congruent_sets = 0;  ///< congruent sets whose transform was scored
   double ms = 0;           ///< [ms]
+  int lcp_points = 0;      ///< source points the LCP fraction is computed on
 };
 
 /// @brief Global registration without initial guess (Vlaminck 2019, Sec. 4.2).
