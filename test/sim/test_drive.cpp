@@ -3,6 +3,8 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
+#include "loopd/core/cloud_ops.hpp"
+#include "loopd/core/kdtree.hpp"
 #include "loopd/sim/drive.hpp"
 
 namespace {
@@ -155,4 +157,36 @@ TEST_CASE("drives are deterministic for a seed and validate their config", "[sim
   bad = loopd::DriveConfig{};
   bad.speed = -1;
   CHECK(bad.validate());
+}
+
+TEST_CASE("a revisit of the drive overlaps its earlier visit after ground-truth alignment", "[sim][drive][overlap]") {
+  loopd::DriveConfig cfg;
+  cfg.num_scans = 1000;
+  const loopd::Drive d = loopd::make_drive(cfg);
+  // The revisit pair with the closest ground truth between visit 1 (second pass of (0,1)->(0,0)) and visit 0.
+  double best = 1e9;
+  int qi = -1, mi = -1;
+  for (int i = 0; i < cfg.num_scans; ++i) {
+    if (d.scans[static_cast<std::size_t>(i)].visit != 1) continue;
+    for (int j = 0; j + 100 <= i; ++j) {
+      if (d.scans[static_cast<std::size_t>(j)].visit != 0) continue;
+      const double dist = (d.scans[static_cast<std::size_t>(i)].T_world_sensor.translation() -
+                           d.scans[static_cast<std::size_t>(j)].T_world_sensor.translation()).norm();
+      // A place in the middle of a revisited stretch, not a crossing.
+      if (dist < 0.5 && dist < best && i > 600) best = dist, qi = i, mi = j;
+    }
+  }
+  REQUIRE(qi >= 0);
+  const auto q = loopd::transform(loopd::voxel_downsample(d.simulate(qi, 2), 0.05), d.scans[static_cast<std::size_t>(qi)].T_world_sensor);
+  const auto m = loopd::transform(loopd::voxel_downsample(d.simulate(mi, 2), 0.05), d.scans[static_cast<std::size_t>(mi)].T_world_sensor);
+  loopd::KdTree3f tree(m.points);
+  std::size_t close = 0;
+  for (const auto& p : q.points) {
+    int idx;
+    float d2;
+    if (tree.nearest(p, &idx, &d2) && d2 <= 0.09f) ++close;
+  }
+  const double share = static_cast<double>(close) / static_cast<double>(q.size());
+  WARN("scan " << qi << " (visit 1) vs scan " << mi << " (visit 0), " << best << " m apart: " << share << " within 0.3 m");
+  CHECK(share >= 0.70);
 }
