@@ -1,5 +1,6 @@
 // kitti2lcm round trip: a small synthetic KITTI-format folder written here, converted, and decoded back; the real
 // KITTI 00 scans when ../shared/data is present. Also the KITTI readers of loopd_eval and their error messages.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdlib>
@@ -265,6 +266,17 @@ TEST_CASE("kitti2lcm on the real KITTI 00 scans (skips without ../shared/data)")
   CHECK(dr.gt[5].T_world_sensor.translation().x() > 4.0);
   CHECK(std::abs(dr.gt[5].T_world_sensor.translation().z()) < 0.2);
   CHECK(dr.scan_utimes[1] - dr.scan_utimes[0] == Approx(103615).margin(200));
+
+  // --sensor hdl64 fills approximate rings from the elevations: 64 rings, nearly all of them populated.
+  REQUIRE(run(bin + " --quiet --sequence " + seq + " --poses " + poses + " --times " + times + " --calib " + calib +
+              " --max-frames 1 --sensor hdl64 --out " + out) == 0);
+  const DecodedDrive ringed = decode_drive(out);
+  REQUIRE(ringed.scans.size() == 1);
+  REQUIRE(ringed.scans[0].has_rings());
+  CHECK(ringed.scans[0].num_rings == 64);
+  std::vector<int> per_ring(64, 0);
+  for (auto r : ringed.scans[0].ring) ++per_ring[std::min<std::size_t>(r, 63)];
+  CHECK(std::count_if(per_ring.begin(), per_ring.end(), [](int n) { return n > 200; }) >= 60);
 
   // Sparse folder: frames without a scan keep their poses with --skip-missing-scans (11 scans among 200 frames).
   REQUIRE(run(bin + " --quiet --sequence " + seq + " --poses " + poses + " --times " + times + " --calib " + calib +

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "lcm_log.hpp"
+#include "loopd/core/lidar_model.hpp"
 #include "loopd/eval/odometry_drift.hpp"
 #include "loopd/eval/trajectory_io.hpp"
 #include "loopd/io/cloud_file.hpp"
@@ -38,6 +39,21 @@ pose_t pose_message(std::int64_t utime, std::int64_t seq, const Eigen::Isometry3
   return to_message(p, seq);
 }
 
+/// Rings from the elevation of each point (nearest beam of the model; points outside the fan go to the nearest
+/// edge ring). Approximate: real sensors' per-beam calibration differs from the nominal angles by about 0.1 deg.
+void assign_rings(const LidarModel& model, PointCloud* cloud) {
+  cloud->ring.resize(cloud->size());
+  cloud->num_rings = model.num_rings;
+  const double lowest = model.vertical_angles_deg.front() * M_PI / 180.0;
+  for (std::size_t i = 0; i < cloud->size(); ++i) {
+    const Eigen::Vector3d p = cloud->points[i].cast<double>();
+    const double elevation = std::atan2(p.z(), std::hypot(p.x(), p.y()));
+    int r = ring_from_elevation(model, elevation);
+    if (r < 0) r = elevation < lowest ? 0 : model.num_rings - 1;
+    cloud->ring[i] = static_cast<std::uint16_t>(r);
+  }
+}
+
 int fail(const std::string& msg) {
   std::cerr << "kitti2lcm: " << msg << "\n";
   return 1;
@@ -47,7 +63,7 @@ int fail(const std::string& msg) {
 
 int main(int argc, char** argv) {
   CLI::App app{"kitti2lcm: KITTI odometry sequence -> LCM drive log (LIDAR_SCAN, GROUND_TRUTH_POSE, ODOMETRY_POSE)"};
-  std::string sequence, poses_path, out, calib_path, times_path, odometry_path, frame = "velodyne";
+  std::string sequence, poses_path, out, calib_path, times_path, odometry_path, frame = "velodyne", sensor;
   std::int64_t max_frames = -1, utime_offset = 1000000;
   double period = 0.0;
   bool skip_missing = false, json = false, quiet = false;
@@ -71,6 +87,8 @@ int main(int argc, char** argv) {
   app.add_option("--residual-base", drift.residual_base, "[m] residual of an unperturbed step")->capture_default_str();
   app.add_option("--max-frames", max_frames, "convert at most this many frames");
   app.add_option("--utime-offset", utime_offset, "[us] added to times (utime = offset + time * 1e6)")->capture_default_str();
+  app.add_option("--sensor", sensor,
+                 "fill ring indices from point elevations with this lidar model (KITTI: hdl64); default: no rings");
   app.add_option("--frame", frame, "sensor frame name in point_cloud_t")->capture_default_str();
   app.add_flag("--skip-missing-scans", skip_missing,
                "frames without a scan file still get poses (default: a missing scan is an error)");
@@ -81,6 +99,11 @@ int main(int argc, char** argv) {
   app.add_flag("--quiet", quiet, "no progress bar");
   CLI11_PARSE(app, argc, argv);
   if (auto e = drift.validate()) return fail(*e);
+  std::optional<LidarModel> model;
+  if (!sensor.empty()) {
+    model = lidar_model_from_name(sensor);
+    if (!model) return fail("unknown --sensor '" + sensor + "'");
+  }
 
   if (!fs::is_directory(sequence)) return fail("sequence folder " + sequence + " does not exist");
   const std::string velodyne_dir = fs::is_directory(sequence + "/velodyne") ? sequence + "/velodyne" : sequence;
@@ -149,6 +172,7 @@ int main(int argc, char** argv) {
       ++missing;
     } else {
       if (!read_cloud_file(scan, &cloud, &error)) return fail(error);
+      if (model) assign_rings(*model, &cloud);
       if (!writer.write_message(scan_channel, utime, to_message(cloud, utime, seq, frame)))
         return fail("cannot write to " + out);
       ++scans;
