@@ -26,8 +26,9 @@ struct HeuristicCorrectionConfig {
   /// residual takes a larger share of the loop error; keeps zero-residual edges from getting no share at all.
   double min_weight_fraction = 0.1;
   /// Also multiply c_ij by the step length [m] (+ min_step_length), so drift that grows with distance travelled is
-  /// spread by distance; off = the paper's d(V_k, V_l) = sum c_ij over edges only.
-  bool distance_weighting = false;
+  /// spread by distance and standstill frames take no share; off = the paper's d(V_k, V_l) = sum c_ij over edges
+  /// only. On by default: measured better on KITTI 00/05 with injected drift (10 Hz frames include standstills).
+  bool distance_weighting = true;
   double min_step_length = 0.05;  ///< [m] floor of the step length when distance_weighting is on
   /// Weight factor for edges inside the span of a loop that was already closed (correct_heuristic_all / LoopCorrector):
   /// 0 keeps earlier (nested) loops exactly closed by moving their stretch rigidly. Falls back to 1 when every

@@ -6,6 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <map>
 #include <memory>
 
@@ -21,6 +22,7 @@ std::optional<std::string> PoseGraphConfig::validate() const {
   if (!(loop_loss_scale > 0.0)) return "loop_loss_scale must be > 0";
   if (!(graduated_start_factor >= 1.0)) return "graduated_start_factor must be >= 1";
   if (!(plane_normal_sigma > 0.0) || !(plane_distance_sigma > 0.0)) return "plane sigmas must be > 0";
+  if (chain_stride < 0) return "chain_stride must be >= 0";
   if (max_iterations < 1) return "max_iterations must be >= 1";
   if (num_threads < 1) return "num_threads must be >= 1";
   if (auto err = weights.validate()) return "weights: " + *err;
@@ -120,6 +122,149 @@ ceres::LossFunction* make_loss(RobustLoss kind, double scale) {
   return nullptr;
 }
 
+/// One edge of the graph being solved (node indices of that graph).
+struct Edge {
+  int a = 0, b = 0;
+  Eigen::Isometry3d Z = Eigen::Isometry3d::Identity();
+  Matrix6d sqrt_info = Matrix6d::Identity();
+  bool robust = false;
+};
+
+/// Adjoint of T for right perturbations in (t, r) order: T exp(xi) = exp(Ad(T) xi) T.
+Matrix6d adjoint(const Eigen::Isometry3d& T) {
+  Matrix6d A = Matrix6d::Zero();
+  const Eigen::Matrix3d R = T.linear();
+  const Eigen::Vector3d t = T.translation();
+  Eigen::Matrix3d tx;
+  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+  A.topLeftCorner<3, 3>() = R;
+  A.topRightCorner<3, 3>() = tx * R;
+  A.bottomRightCorner<3, 3>() = R;
+  return A;
+}
+
+Matrix6d sqrt_of_information(const Matrix6d& information) {
+  Eigen::LLT<Matrix6d> llt(0.5 * (information + information.transpose()));
+  if (llt.info() == Eigen::Success) return llt.matrixU();
+  Eigen::SelfAdjointEigenSolver<Matrix6d> es(0.5 * (information + information.transpose()));
+  return es.eigenvalues().cwiseMax(1e-12).cwiseSqrt().asDiagonal() * es.eigenvectors().transpose();
+}
+
+/// Solves a graph over `poses` (node 0 fixed) in place.
+void solve_graph(std::vector<Eigen::Isometry3d>& poses, const std::vector<Edge>& edges, const std::vector<PlaneObservation>& planes,
+                 const PoseGraphConfig& config, PoseGraphResult& result) {
+  const std::size_t n = poses.size();
+  // Parameters: position (3) and Eigen quaternion (x, y, z, w) per node.
+  std::vector<double> p(3 * n), q(4 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    Eigen::Map<Eigen::Vector3d> pi(&p[3 * i]);
+    pi = poses[i].translation();
+    Eigen::Map<Eigen::Quaterniond> qi(&q[4 * i]);
+    qi = Eigen::Quaterniond(poses[i].linear()).normalized();
+  }
+
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  ceres::SphereManifold<3> sphere_manifold;
+
+  // Loop edges get a robust kernel whose scale can change between solves (graduated kernel).
+  ceres::LossFunctionWrapper loop_loss(make_loss(config.loop_loss, config.loop_loss_scale), ceres::TAKE_OWNERSHIP);
+  std::vector<ceres::ResidualBlockId> robust_blocks;
+  for (const Edge& e : edges) {
+    const auto a = static_cast<std::size_t>(e.a), b = static_cast<std::size_t>(e.b);
+    const bool robust = e.robust && config.loop_loss != RobustLoss::kNone;
+    auto id = problem.AddResidualBlock(RelativePoseError::create(e.Z, e.sqrt_info), robust ? &loop_loss : nullptr, &p[3 * a], &q[4 * a],
+                                       &p[3 * b], &q[4 * b]);
+    if (robust) robust_blocks.push_back(id);
+  }
+
+  // Plane nodes (Ren 2019, Sec. 3.4.2), initialised from the first observation of each plane.
+  std::map<int, std::size_t> slot;
+  std::vector<double> plane_storage;
+  if (config.use_plane_constraints) {
+    for (const PlaneObservation& o : planes) {
+      if (o.index < 0 || o.index >= static_cast<int>(n) || slot.count(o.plane_id)) continue;
+      const Eigen::Isometry3d& T = poses[static_cast<std::size_t>(o.index)];
+      const Eigen::Vector3d n_w = (T.linear() * o.plane_sensor.head<3>()).normalized();
+      slot[o.plane_id] = plane_storage.size() / 4;
+      plane_storage.insert(plane_storage.end(), {n_w.x(), n_w.y(), n_w.z(), o.plane_sensor[3] / o.plane_sensor.head<3>().norm() - n_w.dot(T.translation())});
+    }
+    for (const PlaneObservation& o : planes) {
+      if (o.index < 0 || o.index >= static_cast<int>(n)) continue;
+      const std::size_t s = slot.at(o.plane_id);
+      const Eigen::Vector4d obs = o.plane_sensor / o.plane_sensor.head<3>().norm();
+      const auto i = static_cast<std::size_t>(o.index);
+      problem.AddResidualBlock(PlaneError::create(obs, config.plane_normal_sigma, config.plane_distance_sigma), nullptr, &p[3 * i],
+                               &q[4 * i], &plane_storage[4 * s], &plane_storage[4 * s + 3]);
+    }
+    for (std::size_t s = 0; s < slot.size(); ++s) problem.SetManifold(&plane_storage[4 * s], &sphere_manifold);
+  }
+
+  for (std::size_t i = 0; i < n; ++i)
+    if (problem.HasParameterBlock(&q[4 * i])) problem.SetManifold(&q[4 * i], &quaternion_manifold);
+  if (problem.HasParameterBlock(&p[0])) {
+    problem.SetParameterBlockConstant(&p[0]);  // gauge: the first keyframe stays where it is
+    problem.SetParameterBlockConstant(&q[0]);
+  }
+
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  options.minimizer_type = ceres::TRUST_REGION;
+  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  options.max_num_iterations = config.max_iterations;
+  options.function_tolerance = config.function_tolerance;
+  options.num_threads = config.num_threads;
+  options.logging_type = ceres::SILENT;
+  options.minimizer_progress_to_stdout = false;
+
+  // Graduated kernel: when loops start far from satisfied (raw odometry start), a tight kernel would ignore them all.
+  std::vector<double> scales{config.loop_loss_scale};
+  if (config.graduated && !robust_blocks.empty()) {
+    double worst = 0.0;
+    for (auto id : robust_blocks) {
+      double cost = 0.0;
+      problem.EvaluateResidualBlock(id, false, &cost, nullptr, nullptr);  // without the loss: 0.5 |r|^2
+      worst = std::max(worst, std::sqrt(2.0 * cost));
+    }
+    if (worst > 10.0 * config.loop_loss_scale) {
+      scales.clear();
+      for (double f = config.graduated_start_factor; f > 1.0; f /= 10.0) scales.push_back(config.loop_loss_scale * f);
+      scales.push_back(config.loop_loss_scale);
+    }
+  }
+
+  bool first = true;
+  result.converged = true;
+  for (double scale : scales) {
+    loop_loss.Reset(make_loss(config.loop_loss, scale), ceres::TAKE_OWNERSHIP);
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, &problem, &summary);
+    if (first) result.initial_cost = summary.initial_cost;
+    first = false;
+    result.final_cost = summary.final_cost;
+    result.iterations += static_cast<int>(summary.iterations.size());
+    result.converged = result.converged && summary.termination_type == ceres::CONVERGENCE;
+    result.message = std::getenv("LOOPD_CERES_FULL_REPORT") ? summary.FullReport() : summary.BriefReport();
+    if (summary.termination_type == ceres::FAILURE) {
+      result.converged = false;
+      break;
+    }
+  }
+
+  for (std::size_t i = 0; i < n; ++i) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::Map<const Eigen::Quaterniond>(&q[4 * i]).normalized().toRotationMatrix();
+    T.translation() = Eigen::Map<const Eigen::Vector3d>(&p[3 * i]);
+    poses[i] = T;
+  }
+  result.planes.clear();
+  for (std::size_t s = 0; s < slot.size(); ++s) result.planes.emplace_back(Eigen::Map<const Eigen::Vector4d>(&plane_storage[4 * s]));
+}
+
 }  // namespace
 
 PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odometry_poses, const std::vector<double>& residuals,
@@ -141,142 +286,125 @@ PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odomet
     return result;
   }
 
-  // Parameters: position (3) and Eigen quaternion (x, y, z, w) per keyframe.
-  std::vector<double> p(3 * n), q(4 * n);
-  for (std::size_t i = 0; i < n; ++i) {
-    Eigen::Map<Eigen::Vector3d> pi(&p[3 * i]);
-    pi = init[i].translation();
-    Eigen::Map<Eigen::Quaterniond> qi(&q[4 * i]);
-    qi = Eigen::Quaterniond(init[i].linear()).normalized();
-  }
-
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  ceres::EigenQuaternionManifold quaternion_manifold;
-  ceres::SphereManifold<3> sphere_manifold;
-
-  // Odometry edges: variance proportional to the heuristic's share c_ij / mean(c) (Vlaminck 2019, Sec. 4.4).
+  // Odometry edge covariances: variance proportional to the heuristic's share c_ij / mean(c) (Vlaminck 2019,
+  // Sec. 4.4), or the given information.
   const std::vector<double> c = edge_weights(odometry_poses, residuals, config.weights);
   double mean_c = 0.0;
   for (std::size_t i = 1; i < n; ++i) mean_c += c[i];
   mean_c /= static_cast<double>(n - 1);
   if (!(mean_c > 0.0)) mean_c = 1.0;
   const bool have_cov = odometry_information.size() == n;
-  for (std::size_t i = 1; i < n; ++i) {
-    const Eigen::Isometry3d Z = odometry_poses[i - 1].inverse() * odometry_poses[i];
-    Matrix6d sqrt_info;
+  auto odometry_covariance = [&](std::size_t i) -> Matrix6d {
     if (have_cov && odometry_information[i].allFinite() && !odometry_information[i].isZero(0.0)) {
-      Eigen::LLT<Matrix6d> llt(0.5 * (odometry_information[i] + odometry_information[i].transpose()));
-      sqrt_info = llt.info() == Eigen::Success ? Matrix6d(llt.matrixU()) : diagonal_sqrt_info(config.odometry_translation_sigma, config.odometry_rotation_sigma);
+      Eigen::LDLT<Matrix6d> ldlt(0.5 * (odometry_information[i] + odometry_information[i].transpose()));
+      if (ldlt.info() == Eigen::Success) return ldlt.solve(Matrix6d::Identity());
+    }
+    const double f = std::max(c[i] / mean_c, 1e-6);
+    Vector6d v;
+    v << Eigen::Vector3d::Constant(f * config.odometry_translation_sigma * config.odometry_translation_sigma),
+        Eigen::Vector3d::Constant(f * config.odometry_rotation_sigma * config.odometry_rotation_sigma);
+    return v.asDiagonal();
+  };
+
+  std::vector<const LoopConstraint*> valid_loops;
+  for (const LoopConstraint& l : loops)
+    if (l.query_index >= 0 && l.match_index >= 0 && l.query_index < static_cast<int>(n) && l.match_index < static_cast<int>(n) &&
+        l.query_index != l.match_index)
+      valid_loops.push_back(&l);  // zero-length loops and bad indices carry no information
+
+  // Anchors: keyframes that carry more than odometry (first pose, loop ends, plane observations).
+  std::vector<int> anchors{0};
+  if (config.chain_stride > 0)
+    for (std::size_t i = static_cast<std::size_t>(config.chain_stride); i < n; i += static_cast<std::size_t>(config.chain_stride))
+      anchors.push_back(static_cast<int>(i));
+  for (const LoopConstraint* l : valid_loops) {
+    anchors.push_back(l->query_index);
+    anchors.push_back(l->match_index);
+  }
+  if (config.use_plane_constraints)
+    for (const PlaneObservation& o : planes)
+      if (o.index >= 0 && o.index < static_cast<int>(n)) anchors.push_back(o.index);
+  std::sort(anchors.begin(), anchors.end());
+  anchors.erase(std::unique(anchors.begin(), anchors.end()), anchors.end());
+  const bool reduce = config.reduce_chains && anchors.size() * 2 < n;
+  if (!reduce) {
+    anchors.resize(n);
+    for (std::size_t i = 0; i < n; ++i) anchors[i] = static_cast<int>(i);
+  }
+  std::vector<int> node_of(n, -1);
+  for (std::size_t k = 0; k < anchors.size(); ++k) node_of[static_cast<std::size_t>(anchors[k])] = static_cast<int>(k);
+
+  std::vector<Edge> edges;
+  // Odometry chain between consecutive anchors a < b, composed: Z_ab = Z_{a+1} ... Z_b; its covariance propagated
+  // with adjoints (a right perturbation of step i appears at b as Ad(T_{i,b}^-1) xi_i).
+  for (std::size_t k = 0; k + 1 < anchors.size(); ++k) {
+    const int a = anchors[k], b = anchors[k + 1];
+    Edge e;
+    e.a = static_cast<int>(k);
+    e.b = static_cast<int>(k + 1);
+    e.Z = odometry_poses[static_cast<std::size_t>(a)].inverse() * odometry_poses[static_cast<std::size_t>(b)];
+    if (b == a + 1) {
+      e.sqrt_info = sqrt_of_information(odometry_covariance(static_cast<std::size_t>(b)).inverse());
     } else {
-      const double f = std::sqrt(std::max(c[i] / mean_c, 1e-6));
-      sqrt_info = diagonal_sqrt_info(config.odometry_translation_sigma * f, config.odometry_rotation_sigma * f);
+      Matrix6d cov = Matrix6d::Zero();
+      const Eigen::Isometry3d T_b_inv = odometry_poses[static_cast<std::size_t>(b)].inverse();
+      for (int i = a + 1; i <= b; ++i) {
+        const Matrix6d A = adjoint(T_b_inv * odometry_poses[static_cast<std::size_t>(i)]);  // T_{i,b}^-1 = T_b^-1 T_i
+        cov += A * odometry_covariance(static_cast<std::size_t>(i)) * A.transpose();
+      }
+      e.sqrt_info = sqrt_of_information(cov.inverse());
     }
-    problem.AddResidualBlock(RelativePoseError::create(Z, sqrt_info), nullptr, &p[3 * (i - 1)], &q[4 * (i - 1)], &p[3 * i], &q[4 * i]);
+    edges.push_back(e);
   }
-
-  // Loop edges with a robust kernel whose scale can be changed between solves (graduated kernel).
-  ceres::LossFunctionWrapper loop_loss(make_loss(config.loop_loss, config.loop_loss_scale), ceres::TAKE_OWNERSHIP);
-  std::vector<ceres::ResidualBlockId> loop_blocks;
-  for (const LoopConstraint& l : loops) {
-    if (l.query_index < 0 || l.match_index < 0 || l.query_index >= static_cast<int>(n) || l.match_index >= static_cast<int>(n) ||
-        l.query_index == l.match_index)
-      continue;  // zero-length loops and bad indices carry no information
-    const auto m = static_cast<std::size_t>(l.match_index), qi = static_cast<std::size_t>(l.query_index);
-    loop_blocks.push_back(problem.AddResidualBlock(RelativePoseError::create(l.T_match_query, loop_sqrt_info(l.information, config)),
-                                                   config.loop_loss == RobustLoss::kNone ? nullptr : &loop_loss, &p[3 * m], &q[4 * m],
-                                                   &p[3 * qi], &q[4 * qi]));
+  for (const LoopConstraint* l : valid_loops) {
+    Edge e;
+    e.a = node_of[static_cast<std::size_t>(l->match_index)];
+    e.b = node_of[static_cast<std::size_t>(l->query_index)];
+    e.Z = l->T_match_query;
+    e.sqrt_info = loop_sqrt_info(l->information, config);
+    e.robust = true;
+    edges.push_back(e);
   }
-
-  // Plane nodes (Ren 2019, Sec. 3.4.2), initialised from the first observation of each plane.
-  std::map<int, std::pair<Eigen::Vector3d, double>> plane_nodes;
-  std::vector<double> plane_storage;
-  if (config.use_plane_constraints) {
-    for (const PlaneObservation& o : planes) {
-      if (o.index < 0 || o.index >= static_cast<int>(n) || plane_nodes.count(o.plane_id)) continue;
-      const Eigen::Isometry3d& T = init[static_cast<std::size_t>(o.index)];
-      const Eigen::Vector3d n_w = (T.linear() * o.plane_sensor.head<3>()).normalized();
-      plane_nodes[o.plane_id] = {n_w, o.plane_sensor[3] - n_w.dot(T.translation())};
+  std::vector<PlaneObservation> node_planes;
+  for (const PlaneObservation& o : planes)
+    if (o.index >= 0 && o.index < static_cast<int>(n)) {
+      PlaneObservation m = o;
+      m.index = node_of[static_cast<std::size_t>(o.index)];
+      node_planes.push_back(m);
     }
-    plane_storage.resize(4 * plane_nodes.size());
-    std::map<int, std::size_t> slot;
-    std::size_t k = 0;
-    for (const auto& [id, node] : plane_nodes) {
-      Eigen::Map<Eigen::Vector3d> nk(&plane_storage[4 * k]);
-      nk = node.first;
-      plane_storage[4 * k + 3] = node.second;
-      slot[id] = k++;
-    }
-    for (const PlaneObservation& o : planes) {
-      if (o.index < 0 || o.index >= static_cast<int>(n)) continue;
-      const std::size_t s = slot.at(o.plane_id);
-      Eigen::Vector4d obs = o.plane_sensor;
-      obs /= obs.head<3>().norm();
-      const auto i = static_cast<std::size_t>(o.index);
-      problem.AddResidualBlock(PlaneError::create(obs, config.plane_normal_sigma, config.plane_distance_sigma), nullptr, &p[3 * i],
-                               &q[4 * i], &plane_storage[4 * s], &plane_storage[4 * s + 3]);
-    }
-    for (std::size_t s = 0; s < plane_nodes.size(); ++s) problem.SetManifold(&plane_storage[4 * s], &sphere_manifold);
-  }
 
-  for (std::size_t i = 0; i < n; ++i) problem.SetManifold(&q[4 * i], &quaternion_manifold);
-  problem.SetParameterBlockConstant(&p[0]);  // gauge: the first keyframe stays where it is
-  problem.SetParameterBlockConstant(&q[0]);
+  std::vector<Eigen::Isometry3d> nodes;
+  nodes.reserve(anchors.size());
+  for (int a : anchors) nodes.push_back(init[static_cast<std::size_t>(a)]);
+  solve_graph(nodes, edges, node_planes, config, result);
 
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-  options.minimizer_type = ceres::TRUST_REGION;
-  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  options.max_num_iterations = config.max_iterations;
-  options.function_tolerance = config.function_tolerance;
-  options.num_threads = config.num_threads;
-  options.logging_type = ceres::SILENT;
-  options.minimizer_progress_to_stdout = false;
-
-  // Graduated kernel: when loops start far from satisfied (raw odometry start), a tight kernel would ignore them all.
-  std::vector<double> scales{config.loop_loss_scale};
-  if (config.graduated && config.loop_loss != RobustLoss::kNone && !loop_blocks.empty()) {
-    double worst = 0.0;
-    for (auto id : loop_blocks) {
-      double cost = 0.0;
-      problem.EvaluateResidualBlock(id, false, &cost, nullptr, nullptr);  // cost without the loss = 0.5 |r|^2
-      worst = std::max(worst, std::sqrt(2.0 * cost));
-    }
-    if (worst > 10.0 * config.loop_loss_scale) {
-      scales.clear();
-      for (double f = config.graduated_start_factor; f > 1.0; f /= 10.0) scales.push_back(config.loop_loss_scale * f);
-      scales.push_back(config.loop_loss_scale);
+  if (!reduce) {
+    result.poses = nodes;
+  } else {
+    // Fill each chain between two solved anchors: odometry attached rigidly at a, then the end mismatch at b spread
+    // with the same shares as the heuristic (Vlaminck 2019, Eq. 3) -- the least-squares answer for a chain with
+    // fixed ends when its variance is proportional to c_ij. After the last anchor the chain moves rigidly.
+    std::vector<Eigen::Isometry3d>& out = result.poses;
+    out = odometry_poses;
+    for (std::size_t k = 0; k < anchors.size(); ++k) {
+      const auto a = static_cast<std::size_t>(anchors[k]);
+      const std::size_t b = k + 1 < anchors.size() ? static_cast<std::size_t>(anchors[k + 1]) : n - 1;
+      const Eigen::Isometry3d T = nodes[k] * odometry_poses[a].inverse();
+      for (std::size_t i = a; i <= b; ++i) out[i] = T * odometry_poses[i];
+      if (k + 1 < anchors.size() && b > a + 1) {
+        std::vector<Eigen::Isometry3d> chain(out.begin() + static_cast<std::ptrdiff_t>(a), out.begin() + static_cast<std::ptrdiff_t>(b) + 1);
+        std::vector<double> w(c.begin() + static_cast<std::ptrdiff_t>(a), c.begin() + static_cast<std::ptrdiff_t>(b) + 1);
+        LoopConstraint span;
+        span.match_index = 0;
+        span.query_index = static_cast<int>(b - a);
+        span.T_match_query = nodes[k].inverse() * nodes[k + 1];
+        apply_heuristic_correction(chain, w, span, config.weights.rotate_positions);
+        std::copy(chain.begin(), chain.end(), out.begin() + static_cast<std::ptrdiff_t>(a));
+      } else if (k + 1 < anchors.size()) {
+        out[b] = nodes[k + 1];
+      }
     }
   }
-
-  bool first = true;
-  result.converged = true;
-  for (double scale : scales) {
-    loop_loss.Reset(make_loss(config.loop_loss, scale), ceres::TAKE_OWNERSHIP);
-    ceres::Solver::Summary summary;
-    ceres::Solve(options, &problem, &summary);
-    if (first) result.initial_cost = summary.initial_cost;
-    first = false;
-    result.final_cost = summary.final_cost;
-    result.iterations += static_cast<int>(summary.iterations.size());
-    result.converged = result.converged && summary.termination_type == ceres::CONVERGENCE;
-    result.message = summary.BriefReport();
-    if (summary.termination_type == ceres::FAILURE) {
-      result.converged = false;
-      break;
-    }
-  }
-
-  for (std::size_t i = 0; i < n; ++i) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::Map<const Eigen::Quaterniond>(&q[4 * i]).normalized().toRotationMatrix();
-    T.translation() = Eigen::Map<const Eigen::Vector3d>(&p[3 * i]);
-    result.poses[i] = T;
-  }
-  for (std::size_t s = 0; s < plane_nodes.size(); ++s) result.planes.emplace_back(Eigen::Map<const Eigen::Vector4d>(&plane_storage[4 * s]));
   result.ms = watch.ms();
   return result;
 }

@@ -52,6 +52,15 @@ struct PoseGraphConfig {
   double plane_normal_sigma = 0.01;    ///< [rad]
   double plane_distance_sigma = 0.05;  ///< [m]
 
+  /// Solve only the keyframes that carry more than odometry (first pose, loop ends, plane observations) with the
+  /// odometry chains between them composed into one edge each (covariance propagated); the chains are then filled in
+  /// with the heuristic's shares. Exact for the chain's least-squares problem to first order, and 10-100x faster.
+  /// Off (or when more than a third of the keyframes are anchors): the full graph with one edge per keyframe step.
+  bool reduce_chains = true;
+  /// With reduce_chains, also keep every chain_stride-th keyframe as a node (0: loop ends only), so long chains
+  /// bend like the full graph; ~n/chain_stride nodes.
+  int chain_stride = 30;
+
   int max_iterations = 50;
   double function_tolerance = 1e-8;
   int num_threads = 1;
