@@ -23,29 +23,30 @@ constexpr int kMinCovarianceNeighbors = 4;
 constexpr int kMaxNeighbors = 64;
 constexpr int kMinPoints = 10;
 
-std::vector<Eigen::Vector3f> finite_points(const std::vector<Eigen::Vector3f>& in) {
-  std::vector<Eigen::Vector3f> out;
-  out.reserve(in.size());
-  for (const auto& p : in)
-    if (p.allFinite()) out.push_back(p);
-  return out;
+/// Copies the finite points (and their normals, when given) in step.
+void finite_points(const std::vector<Eigen::Vector3f>& in, const std::vector<Eigen::Vector3f>& normals_in, std::vector<Eigen::Vector3f>* out,
+                   std::vector<Eigen::Vector3f>* normals_out) {
+  out->reserve(in.size());
+  const bool has_normals = normals_in.size() == in.size();
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    if (!in[i].allFinite()) continue;
+    out->push_back(in[i]);
+    if (has_normals) normals_out->push_back(normals_in[i].allFinite() ? normals_in[i] : Eigen::Vector3f::Zero());
+  }
 }
 
-/// Ren 2019, Eqs. (2)-(3): covariance of the k nearest neighbours, its eigenvalues replaced by (eps, 1, 1) so that a
-/// point only constrains along its surface normal.
-std::vector<Eigen::Matrix3d> estimate_covariances(const std::vector<Eigen::Vector3f>& points, const KdTree3f& tree, int k, double eps,
-                                                  int num_threads) {
-  std::vector<Eigen::Matrix3d> covs(points.size());
+/// Ren 2019, Eq. (2): normal = eigenvector of the smallest eigenvalue of the k-neighbour covariance.
+std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3f>& points, const KdTree3f& tree, int k, int num_threads) {
+  std::vector<Eigen::Vector3f> normals(points.size(), Eigen::Vector3f::Zero());
   const int n = static_cast<int>(points.size());
 #pragma omp parallel for num_threads(num_threads) schedule(static)
   for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3f& p = points[static_cast<std::size_t>(i)];
+    if (!p.allFinite()) continue;
     int idx[kMaxNeighbors];
     float d2[kMaxNeighbors];
-    const int found = tree.knn(points[static_cast<std::size_t>(i)], k, idx, d2);
-    if (found < kMinCovarianceNeighbors) {
-      covs[static_cast<std::size_t>(i)] = Eigen::Matrix3d::Identity();
-      continue;
-    }
+    const int found = tree.knn(p, k, idx, d2);
+    if (found < kMinCovarianceNeighbors) continue;
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     for (int j = 0; j < found; ++j) mean += points[static_cast<std::size_t>(idx[j])].cast<double>();
     mean /= found;
@@ -57,11 +58,20 @@ std::vector<Eigen::Matrix3d> estimate_covariances(const std::vector<Eigen::Vecto
     c /= found;
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
     es.computeDirect(c);
-    const Eigen::Matrix3d U = es.eigenvectors();  // eigenvalues ascending: column 0 is the normal
-    const Eigen::Vector3d sigma(eps, 1.0, 1.0);
-    Eigen::Matrix3d C = U * sigma.asDiagonal() * U.transpose();
-    if (!C.allFinite()) C = Eigen::Matrix3d::Identity();
-    covs[static_cast<std::size_t>(i)] = C;
+    const Eigen::Vector3d normal = es.eigenvectors().col(0);  // eigenvalues ascending
+    if (normal.allFinite() && normal.norm() > 0.5) normals[static_cast<std::size_t>(i)] = normal.normalized().cast<float>();
+  }
+  return normals;
+}
+
+/// Ren 2019, Eq. (3): C = U diag(eps, 1, 1) U^T = I - (1 - eps) n n^T; a zero normal gives the identity.
+std::vector<Eigen::Matrix3d> covariances_from_normals(const std::vector<Eigen::Vector3f>& normals, double eps) {
+  std::vector<Eigen::Matrix3d> covs(normals.size());
+  for (std::size_t i = 0; i < normals.size(); ++i) {
+    const Eigen::Vector3d n = normals[i].cast<double>();
+    const double len2 = n.squaredNorm();
+    covs[i] = Eigen::Matrix3d::Identity();
+    if (len2 > 0.25 && std::isfinite(len2)) covs[i] -= (1.0 - eps) * (n * n.transpose()) / len2;
   }
   return covs;
 }
@@ -99,7 +109,7 @@ Linearization linearize(const std::vector<Eigen::Vector3f>& source, const std::v
   const Eigen::Matrix3d R = T.linear();
   const float max_d2 = static_cast<float>(max_distance * max_distance);
   const Eigen::Isometry3f Tf = T.cast<float>();
-#pragma omp parallel for num_threads(num_threads) schedule(dynamic, 1)
+#pragma omp parallel for num_threads(num_threads) schedule(static)
   for (int blk = 0; blk < num_blocks; ++blk) {
     Linearization& L = blocks[static_cast<std::size_t>(blk)];
     const int end = std::min(n, (blk + 1) * kBlockSize);
@@ -170,7 +180,29 @@ double gicp_degeneracy(const Eigen::Matrix<double, 6, 6>& H, Eigen::Vector3d* we
   return ev(2) / ev(0);
 }
 
-GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source_in, const std::vector<Eigen::Vector3f>& target_in,
+std::vector<Eigen::Vector3f> estimate_gicp_normals(const std::vector<Eigen::Vector3f>& points, int k_neighbors, int num_threads) {
+  k_neighbors = std::clamp(k_neighbors, kMinCovarianceNeighbors, kMaxNeighbors);
+  // Build the tree over the finite points only; map the normals back.
+  std::vector<Eigen::Vector3f> finite;
+  std::vector<Eigen::Vector3f> unused;
+  finite_points(points, {}, &finite, &unused);
+  std::vector<Eigen::Vector3f> out(points.size(), Eigen::Vector3f::Zero());
+  if (finite.empty()) return out;
+  const KdTree3f tree(finite);
+  const std::vector<Eigen::Vector3f> fn = estimate_normals(finite, tree, k_neighbors, std::max(1, num_threads));
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (points[i].allFinite()) out[i] = fn[k++];
+  return out;
+}
+
+GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source, const std::vector<Eigen::Vector3f>& target,
+                      const Eigen::Isometry3d& init_T_target_source, const GicpConfig& config) {
+  return align_gicp(source, {}, target, {}, init_T_target_source, config);
+}
+
+GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source_in, const std::vector<Eigen::Vector3f>& source_normals_in,
+                      const std::vector<Eigen::Vector3f>& target_in, const std::vector<Eigen::Vector3f>& target_normals_in,
                       const Eigen::Isometry3d& init_T_target_source, const GicpConfig& config) {
   Stopwatch sw;
   GicpResult result;
@@ -183,8 +215,14 @@ GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source_in, const std::
     result.reason = "initial transform is not finite";
     return result;
   }
-  const std::vector<Eigen::Vector3f> source = finite_points(source_in);
-  const std::vector<Eigen::Vector3f> target = finite_points(target_in);
+  if ((!source_normals_in.empty() && source_normals_in.size() != source_in.size()) ||
+      (!target_normals_in.empty() && target_normals_in.size() != target_in.size())) {
+    result.reason = "normals must be empty or sized like their points";
+    return result;
+  }
+  std::vector<Eigen::Vector3f> source, target, source_normals, target_normals;
+  finite_points(source_in, source_normals_in, &source, &source_normals);
+  finite_points(target_in, target_normals_in, &target, &target_normals);
   if (static_cast<int>(source.size()) < kMinPoints || static_cast<int>(target.size()) < kMinPoints) {
     std::ostringstream os;
     os << "too few finite points (source " << source.size() << ", target " << target.size() << ", need " << kMinPoints << ")";
@@ -193,16 +231,24 @@ GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source_in, const std::
     return result;
   }
 
-  const KdTree3f source_tree(source);
   const KdTree3f target_tree(target);
-  const std::vector<Eigen::Matrix3d> source_covs = estimate_covariances(source, source_tree, config.k_neighbors, config.epsilon, config.num_threads);
-  const std::vector<Eigen::Matrix3d> target_covs = estimate_covariances(target, target_tree, config.k_neighbors, config.epsilon, config.num_threads);
+  if (source_normals.empty()) {
+    const KdTree3f source_tree(source);
+    source_normals = estimate_normals(source, source_tree, config.k_neighbors, config.num_threads);
+  }
+  if (target_normals.empty()) target_normals = estimate_normals(target, target_tree, config.k_neighbors, config.num_threads);
+  const std::vector<Eigen::Matrix3d> source_covs = covariances_from_normals(source_normals, config.epsilon);
+  const std::vector<Eigen::Matrix3d> target_covs = covariances_from_normals(target_normals, config.epsilon);
+  result.ms_covariances = sw.ms();
 
   Eigen::Isometry3d T = init_T_target_source;
   bool last_stage_converged = false;
   bool numeric_failure = false;
   for (std::size_t stage = 0; stage < config.max_correspondence_distances.size() && !numeric_failure; ++stage) {
     const double max_distance = config.max_correspondence_distances[stage];
+    const bool final_stage = stage + 1 == config.max_correspondence_distances.size();
+    // Coarse stages only need to hand a good start to the next one: 10x looser step criterion.
+    const double loosen = final_stage ? 1.0 : 10.0;
     last_stage_converged = false;
     for (int it = 0; it < config.max_iterations; ++it) {
       const Linearization L = linearize(source, source_covs, target, target_covs, target_tree, T, max_distance, config.num_threads);
@@ -219,7 +265,7 @@ GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source_in, const std::
       // Keep the rotation orthonormal over many small updates.
       const Eigen::Quaterniond q(T.linear());
       T.linear() = q.normalized().toRotationMatrix();
-      if (delta.head<3>().norm() < config.convergence_rotation && delta.tail<3>().norm() < config.convergence_translation) {
+      if (delta.head<3>().norm() < loosen * config.convergence_rotation && delta.tail<3>().norm() < loosen * config.convergence_translation) {
         last_stage_converged = true;
         break;
       }

@@ -45,6 +45,7 @@ struct GicpResult {
   double degeneracy = -1;    ///< gicp_degeneracy(H): >= 1, large = ill-conditioned translation (corridor); -1 when unknown
   Eigen::Vector3d weakest_direction = Eigen::Vector3d::Zero();  ///< translation direction (source frame) with least information
   double ms = 0;             ///< [ms] wall time including covariance estimation
+  double ms_covariances = 0; ///< [ms] of which: k-d trees and per-point covariances
   std::string reason;        ///< why converged is false (empty otherwise)
 };
 
@@ -55,6 +56,21 @@ struct GicpResult {
 /// for any num_threads.
 GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source, const std::vector<Eigen::Vector3f>& target,
                       const Eigen::Isometry3d& init_T_target_source, const GicpConfig& config);
+
+/// @brief The same with precomputed per-point normals (from estimate_gicp_normals, e.g. cached per keyframe), so
+/// that a keyframe's covariances are estimated once instead of once per loop candidate. With the eigenvalues fixed to
+/// (eps, 1, 1) a GICP covariance is fully determined by its normal n: C = I - (1 - eps) n n^T (Ren 2019, Eq. 3).
+/// A zero normal means "no plane" (isotropic covariance). Empty normal vectors: estimated here as in align_gicp.
+/// @param source_normals unit normals sized like `source` (or empty)
+/// @param target_normals unit normals sized like `target` (or empty)
+GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source, const std::vector<Eigen::Vector3f>& source_normals,
+                      const std::vector<Eigen::Vector3f>& target, const std::vector<Eigen::Vector3f>& target_normals,
+                      const Eigen::Isometry3d& init_T_target_source, const GicpConfig& config);
+
+/// @brief Per-point surface normals for GICP: smallest-eigenvalue eigenvector of the covariance of the k nearest
+/// neighbours (Ren 2019, Eq. 2). Zero vector for non-finite points and where fewer than 4 neighbours exist.
+/// @note Deterministic for any num_threads.
+std::vector<Eigen::Vector3f> estimate_gicp_normals(const std::vector<Eigen::Vector3f>& points, int k_neighbors, int num_threads);
 
 /// @brief Degeneracy of a GICP Hessian: condition number lambda_max / lambda_min of the translational information after
 /// marginalising rotation (Schur complement of the rotation block). ~1-30 for well-constrained street scenes; large
