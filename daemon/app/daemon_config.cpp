@@ -3,7 +3,9 @@
 #include <yaml-cpp/yaml.h>
 
 #include <fstream>
+#include <algorithm>
 #include <functional>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -111,6 +113,66 @@ class Binder {
   std::map<std::string, std::string> dump_;
   std::string error_;
 };
+
+/// The stage configs of the detector (descriptor, preparation, verification, correction).
+void bind_stage_configs(Binder& b, LoopDetectorConfig& d) {
+  M2dpConfig& m = d.m2dp;
+  b.field("descriptor.l", m.num_rings_l);
+  b.field("descriptor.t", m.num_sectors_t);
+  b.field("descriptor.p", m.num_azimuths_p);
+  b.field("descriptor.q", m.num_elevations_q);
+  b.choice("descriptor.frame", m.frame, {{"gravity", M2dpFrame::kGravityAligned}, {"pca", M2dpFrame::kPca}});
+  b.choice("descriptor.backend", m.backend, {{"auto", Backend::kAuto}, {"opencl", Backend::kOpenCl}, {"cpu", Backend::kCpu}});
+  b.field("descriptor.opencl_device", m.opencl_device);
+  b.field("descriptor.max_points", m.max_points);
+
+  PrepareConfig& p = d.prepare;
+  b.field("keyframe_cloud.voxel_size", p.voxel_size);
+  b.field("keyframe_cloud.min_range", p.min_range);
+  b.field("keyframe_cloud.max_range", p.max_range);
+  int max_points = static_cast<int>(p.max_points);
+  b.field("keyframe_cloud.max_points", max_points);
+  p.max_points = static_cast<std::size_t>(std::max(0, max_points));
+  SegmentationConfig& sg = p.segmentation;
+  b.field("segmentation.max_neighbor_distance", sg.max_neighbor_distance);
+  b.field("segmentation.distance_range_scale", sg.distance_range_scale);
+  b.field("segmentation.max_normal_angle_deg", sg.max_normal_angle_deg);
+  b.field("segmentation.min_cluster_points", sg.min_cluster_points);
+  b.field("segmentation.plane_rms_tolerance", sg.plane_rms_tolerance);
+  b.field("segmentation.max_clusters", sg.max_clusters);
+
+  VerifyConfig& v = d.verify;
+  b.field("fourpcs.delta", v.four_pcs.delta);
+  b.field("fourpcs.max_bases", v.four_pcs.max_bases);
+  b.field("fourpcs.min_base_width", v.four_pcs.min_base_width);
+  b.field("fourpcs.max_angle_deviation_deg", v.four_pcs.max_angle_deviation_deg);
+  b.field("fourpcs.max_tilt_deg", v.four_pcs.max_tilt_deg);
+  b.field("fourpcs.lcp_sample_points", v.four_pcs.lcp_sample_points);
+  b.field("fourpcs.num_threads", v.four_pcs.num_threads);
+  b.field("gicp.k_neighbors", v.gicp.k_neighbors);
+  b.field("gicp.epsilon", v.gicp.epsilon);
+  b.field("gicp.max_iterations", v.gicp.max_iterations);
+  b.field("gicp.num_threads", v.gicp.num_threads);
+  b.field("verify.min_points", v.min_points);
+  b.field("verify.min_lcp_fraction", v.min_lcp_fraction);
+  b.field("verify.max_icp_residual", v.max_icp_residual);
+  b.field("verify.min_icp_fitness", v.min_icp_fitness);
+  b.field("verify.max_degeneracy_ratio", v.max_degeneracy_ratio);
+  b.field("verify.reject_degenerate", v.reject_degenerate);
+  b.field("verify.hungarian_match_distance", v.hungarian_match_distance);
+  b.field("verify.min_hungarian_consistency", v.min_hungarian_consistency);
+  b.field("verify.reject_unjudgeable_consistency", v.reject_unjudgeable_consistency);
+
+  LoopCorrectorConfig& c = d.correction;
+  b.choice("correction.method", c.method,
+           {{"heuristic+graph", CorrectionMethod::kHeuristicThenGraph}, {"heuristic", CorrectionMethod::kHeuristic}, {"graph", CorrectionMethod::kGraph}});
+  b.choice("correction.graph.loop_loss", c.graph.loop_loss, {{"cauchy", RobustLoss::kCauchy}, {"huber", RobustLoss::kHuber}, {"none", RobustLoss::kNone}});
+  b.field("correction.graph.loop_loss_scale", c.graph.loop_loss_scale);
+  b.field("correction.graph.odometry_translation_sigma", c.graph.odometry_translation_sigma);
+  b.field("correction.graph.odometry_rotation_sigma", c.graph.odometry_rotation_sigma);
+  b.field("correction.graph.max_iterations", c.graph.max_iterations);
+  b.field("correction.graph.use_plane_constraints", c.graph.use_plane_constraints);
+}
 
 void bind(Binder& b, DaemonConfig& c) {
   NodeConfig& n = c.node;

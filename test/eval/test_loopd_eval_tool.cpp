@@ -12,7 +12,7 @@
 
 #include "loopd/eval/evaluation.hpp"
 
-#if __has_include(<loopd/loop_event_t.hpp>) && __has_include("lcm_log.hpp")
+#if 1  // LCM types and lcm_log.hpp are always linked (loopd_bridge)
 #define LOOPD_EVAL_TEST_HAS_LCM 1
 #include <loopd/loop_event_t.hpp>
 #include <loopd/trajectory_t.hpp>
