@@ -161,11 +161,19 @@ Hit trace(const Town& town, const std::vector<std::uint8_t>& enabled, const Ray&
   double t_next_y = dy_abs > 1e-15 ? (town.grid_y0 + (iy + (step_y > 0 ? 1 : 0)) * cs - r.o.y()) / r.d.y() : kInf;
   const double dt_x = dx_abs > 1e-15 ? cs / dx_abs : kInf, dt_y = dy_abs > 1e-15 ? cs / dy_abs : kInf;
 
+  // Mailbox: primitives spanning several cells (blocks, buildings) are tested once per ray.
+  constexpr int kMailbox = 16;
+  std::uint32_t tested[kMailbox];
+  int num_tested = 0;
   while (true) {
     const std::size_t cell = static_cast<std::size_t>(iy) * static_cast<std::size_t>(town.grid_nx) + static_cast<std::size_t>(ix);
     for (std::uint32_t k = town.cell_start[cell]; k < town.cell_start[cell + 1]; ++k) {
       const std::uint32_t pi = town.cell_items[k];
       if (!enabled[pi]) continue;
+      bool seen = false;
+      for (int q = 0; q < std::min(num_tested, kMailbox); ++q) seen |= tested[q] == pi;
+      if (seen) continue;
+      tested[num_tested++ % kMailbox] = pi;
       const double t = intersect(town, town.primitives[pi], r, hit.t);
       if (t < hit.t && t < max_range) {
         hit.t = t;
@@ -206,11 +214,13 @@ void surface(const Town& town, const Ray& r, const Hit& hit, Eigen::Vector3d* n,
     *refl = 0.12;
     if (town.lane_markings) {
       // Dashed centre lines (3 m paint, 3 m gap), 0.15 m wide: bright road marking.
-      for (double sx : town.street_x) {
-        if (std::abs(x.x() - sx) < 0.075 && std::fmod(std::abs(x.y()), 6.0) < 3.0) *refl = 0.8;
-      }
-      for (double sy : town.street_y) {
-        if (std::abs(x.y() - sy) < 0.075 && std::fmod(std::abs(x.x()), 6.0) < 3.0) *refl = 0.8;
+      auto near_line = [](const std::vector<double>& lines, double v) {  // lines are sorted
+        auto it = std::lower_bound(lines.begin(), lines.end(), v - 0.075);
+        return it != lines.end() && *it <= v + 0.075;
+      };
+      if ((near_line(town.street_x, x.x()) && std::fmod(std::abs(x.y()), 6.0) < 3.0) ||
+          (near_line(town.street_y, x.y()) && std::fmod(std::abs(x.x()), 6.0) < 3.0)) {
+        *refl = 0.8;
       }
     }
     return;
@@ -339,9 +349,10 @@ PointCloud simulate_scan(const Town& town, const LidarModel& model, const Eigen:
 
   std::size_t count = 0;
   for (float v : range) count += std::isnan(v) ? 0 : 1;
-  cloud.points.reserve(count);
-  cloud.intensity.reserve(count);
-  cloud.ring.reserve(count);
+  cloud.points.resize(count);
+  cloud.intensity.resize(count);
+  cloud.ring.resize(count);
+  std::size_t k = 0;
   for (int c = 0; c < cols; ++c) {
     const double az = 2.0 * kPi * static_cast<double>(c) / static_cast<double>(cols);
     const double ca = std::cos(az), sa = std::sin(az);
@@ -350,10 +361,11 @@ PointCloud simulate_scan(const Town& town, const LidarModel& model, const Eigen:
       if (std::isnan(range[ray])) continue;
       const double t = range[ray];
       const double ce = cos_el[static_cast<std::size_t>(r)];
-      cloud.points.emplace_back(static_cast<float>(t * ce * ca), static_cast<float>(t * ce * sa),
-                                static_cast<float>(t * sin_el[static_cast<std::size_t>(r)]));
-      cloud.intensity.push_back(inten[ray]);
-      cloud.ring.push_back(static_cast<std::uint16_t>(r));
+      cloud.points[k] = Eigen::Vector3f(static_cast<float>(t * ce * ca), static_cast<float>(t * ce * sa),
+                                        static_cast<float>(t * sin_el[static_cast<std::size_t>(r)]));
+      cloud.intensity[k] = inten[ray];
+      cloud.ring[k] = static_cast<std::uint16_t>(r);
+      ++k;
     }
   }
   return cloud;
