@@ -1,0 +1,120 @@
+// loopd-verify QUERY MATCH: is MATCH the same place as QUERY? 4PCS -> GICP -> degeneracy -> Hungarian (Vlaminck 2019 Sec. 4.3).
+#include <CLI/CLI.hpp>
+#include <iostream>
+#include <optional>
+
+#include "loopd/core/lidar_model.hpp"
+#include "loopd/core/pose.hpp"
+#include "loopd/io/cloud_file.hpp"
+#include "loopd/verify/verify.hpp"
+#include "tool_output.hpp"
+
+using namespace loopd;
+
+namespace {
+double json_number(double v) { return std::isfinite(v) ? v : 1e300; }
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("loopd-verify: verify a loop candidate between two scans (4PCS, GICP, degeneracy, Hungarian centroid check)");
+  std::string query_file, match_file, sensor = "hdl64";
+  bool json = false;
+  PrepareConfig prep;
+  VerifyConfig cfg;
+  int threads = 2;
+  std::vector<double> guess;
+  app.add_option("QUERY", query_file, "query scan (.bin KITTI, .pcd, .ply)")->required();
+  app.add_option("MATCH", match_file, "match (older) scan")->required();
+  app.add_option("--sensor", sensor, "lidar model for the range image: vlp16 | hdl32 | hdl64 | os1-64 | none (derive rings)");
+  app.add_option("--voxel", prep.voxel_size, "voxel size [m]")->capture_default_str();
+  app.add_option("--max-range", prep.max_range, "crop range [m]")->capture_default_str();
+  app.add_option("--threads", threads, "threads for GICP and normals")->capture_default_str();
+  app.add_option("--guess", guess, "skip 4PCS: GICP starts from this T_match_query (16 row-major numbers)")->expected(16);
+  app.add_option("--min-lcp", cfg.min_lcp_fraction, "4PCS LCP fraction needed")->capture_default_str();
+  app.add_option("--min-fitness", cfg.min_icp_fitness, "GICP inlier share needed")->capture_default_str();
+  app.add_option("--max-residual", cfg.max_icp_residual, "GICP residual allowed [m]")->capture_default_str();
+  app.add_option("--max-degeneracy", cfg.max_degeneracy_ratio, "translational condition number allowed")->capture_default_str();
+  app.add_option("--min-consistency", cfg.min_hungarian_consistency, "cluster centroid share needed")->capture_default_str();
+  app.add_flag("--json", json, "one JSON object as the last stdout line");
+  CLI11_PARSE(app, argc, argv);
+
+  std::optional<LidarModel> model;
+  if (sensor != "none") {
+    model = lidar_model_from_name(sensor);
+    if (!model) {
+      std::cerr << "loopd-verify: unknown sensor '" << sensor << "'\n";
+      return 1;
+    }
+  }
+  prep.num_threads = threads;
+  cfg.gicp.num_threads = threads;
+  cfg.four_pcs.num_threads = threads;
+  if (auto err = prep.validate()) {
+    std::cerr << "loopd-verify: " << *err << "\n";
+    return 1;
+  }
+  if (auto err = cfg.validate()) {
+    std::cerr << "loopd-verify: " << *err << "\n";
+    return 1;
+  }
+  PointCloud query_cloud, match_cloud;
+  std::string err;
+  if (!read_cloud_file(query_file, &query_cloud, &err) || !read_cloud_file(match_file, &match_cloud, &err)) {
+    std::cerr << "loopd-verify: " << err << "\n";
+    return 1;
+  }
+  const LidarModel* m = model ? &*model : nullptr;
+  const PreparedScan query = prepare_scan(query_cloud, m, prep);
+  const PreparedScan match = prepare_scan(match_cloud, m, prep);
+  VerifyResult r;
+  if (guess.size() == 16) {
+    r = verify_from_guess(query, match, from_row_major(guess.data()), cfg);
+  } else {
+    r = verify(query, match, cfg);
+  }
+  double T[16];
+  to_row_major(r.T_match_query, T);
+
+  if (json) {
+    nlohmann::json j;
+    j["accepted"] = r.accepted;
+    j["stage"] = to_string(r.stage);
+    j["reason"] = r.reason;
+    j["T_match_query"] = std::vector<double>(T, T + 16);
+    j["scores"] = {{"lcp_fraction", r.lcp_fraction},         {"icp_residual", r.icp_residual}, {"icp_fitness", r.icp_fitness},
+                   {"degeneracy", json_number(r.degeneracy)}, {"degenerate", r.degenerate},     {"hungarian_consistency", r.hungarian_consistency},
+                   {"icp_iterations", r.icp_iterations},     {"icp_converged", r.icp_converged}, {"clusters_query", r.clusters_query},
+                   {"clusters_match", r.clusters_match},     {"clusters_matched", r.clusters_matched}};
+    // Top-level copies of the scores for flat consumers.
+    for (const auto& [k, v] : j["scores"].items()) j[k] = v;
+    j["ms"] = {{"fourpcs", r.ms_fourpcs}, {"gicp", r.ms_gicp}, {"hungarian", r.ms_hungarian}, {"total", r.ms_total},
+               {"prepare_query", query.ms_total}, {"prepare_match", match.ms_total}};
+    std::vector<double> info(r.information.data(), r.information.data() + 36);  // symmetric: order does not matter
+    j["information"] = info;
+    j["points"] = {{"query", query.points.size()}, {"match", match.points.size()}};
+    j["bytes"] = {{"query", query.bytes()}, {"match", match.bytes()}};
+    tools::print_json_line(j);
+    return 0;
+  }
+  std::cout << (r.accepted ? "ACCEPTED" : "REJECTED") << " at stage " << to_string(r.stage) << (r.reason.empty() ? "" : ": " + r.reason) << "\n\n";
+  tools::Table scores({"score", "value"});
+  scores.add({"4PCS LCP fraction", tools::fmt(r.lcp_fraction)});
+  scores.add({"GICP residual [m]", tools::fmt(r.icp_residual)});
+  scores.add({"GICP fitness", tools::fmt(r.icp_fitness)});
+  scores.add({"GICP iterations / converged", std::to_string(r.icp_iterations) + " / " + (r.icp_converged ? "yes" : "no")});
+  scores.add({"degeneracy (cond. number)", tools::fmt(r.degeneracy, 1) + (r.degenerate ? "  DEGENERATE" : "")});
+  scores.add({"Hungarian consistency", tools::fmt(r.hungarian_consistency) + " (" + std::to_string(r.clusters_matched) + " of " +
+                                           std::to_string(r.clusters_query) + "/" + std::to_string(r.clusters_match) + ")"});
+  std::cout << scores.str() << "\n";
+  tools::Table ms({"stage", "ms"});
+  ms.add({"prepare query", tools::fmt(query.ms_total, 1)});
+  ms.add({"prepare match", tools::fmt(match.ms_total, 1)});
+  ms.add({"4PCS", tools::fmt(r.ms_fourpcs, 1)});
+  ms.add({"GICP", tools::fmt(r.ms_gicp, 1)});
+  ms.add({"Hungarian", tools::fmt(r.ms_hungarian, 2)});
+  ms.add({"verify total", tools::fmt(r.ms_total, 1)});
+  std::cout << ms.str() << "\nT_match_query:\n";
+  for (int i = 0; i < 4; ++i) std::cout << "  " << tools::fmt(T[4 * i], 5) << " " << tools::fmt(T[4 * i + 1], 5) << " " << tools::fmt(T[4 * i + 2], 5) << " " << tools::fmt(T[4 * i + 3], 4) << "\n";
+  std::cout << "points: query " << query.points.size() << ", match " << match.points.size() << "; keyframe bytes: " << query.bytes() << ", " << match.bytes() << "\n";
+  return 0;
+}
