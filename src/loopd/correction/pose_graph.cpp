@@ -6,7 +6,6 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <map>
 #include <memory>
 
@@ -248,7 +247,7 @@ void solve_graph(std::vector<Eigen::Isometry3d>& poses, const std::vector<Edge>&
     result.final_cost = summary.final_cost;
     result.iterations += static_cast<int>(summary.iterations.size());
     result.converged = result.converged && summary.termination_type == ceres::CONVERGENCE;
-    result.message = std::getenv("LOOPD_CERES_FULL_REPORT") ? summary.FullReport() : summary.BriefReport();
+    result.message = summary.BriefReport();
     if (summary.termination_type == ceres::FAILURE) {
       result.converged = false;
       break;

@@ -39,7 +39,9 @@ struct PoseGraphConfig {
   double min_loop_information = 1e-2;
 
   RobustLoss loop_loss = RobustLoss::kCauchy;  ///< robust kernel on loop edges so one bad loop cannot bend the map
-  double loop_loss_scale = 1.0;               ///< kernel scale in units of the whitened residual (sigmas)
+  /// Kernel scale in units of the whitened residual (sigmas). Measured on synthetic laps: 1 rejects a lone true
+  /// loop whose drift is large compared with the odometry sigmas; >= 3 lets a 5 m wrong loop bend the map ~2.5 m; 2 does neither.
+  double loop_loss_scale = 2.0;
 
   /// Graduated robust kernel: when the initial loop residuals are large (e.g. starting from raw odometry), first
   /// solve with the kernel scale multiplied by graduated_start_factor, then shrink it by 10x per stage.

@@ -1,0 +1,192 @@
+// Pose-graph correction (Ren 2019, Sec. 3.4) on synthetic drives with drift: accuracy vs the heuristic, robustness to
+// a wrong loop, degenerate loops, plane constraints, reduced vs full graph.
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "loopd/correction/loop_corrector.hpp"
+#include "loopd/correction/pose_graph.hpp"
+#include "loopd/correction/trajectory_tools.hpp"
+
+using namespace loopd;
+
+namespace {
+constexpr double kDeg = M_PI / 180.0;
+
+struct Scenario {
+  std::vector<Eigen::Isometry3d> gt;
+  DriftedTrajectory odom;
+  std::vector<LoopConstraint> loops;
+};
+
+Scenario make_scenario(int n, std::uint64_t seed, double heading_bias = 0.0005) {
+  Scenario s;
+  s.gt = make_lap_trajectory(n);
+  DriftConfig drift;
+  drift.seed = seed;
+  drift.heading_bias = heading_bias;
+  drift.scale_bias = 0.0;
+  s.odom = inject_drift(s.gt, drift);
+  s.loops = find_ground_truth_loops(s.gt, 1.0, 100, 150, 0);
+  return s;
+}
+
+std::vector<Eigen::Isometry3d> run(const Scenario& s, const std::vector<LoopConstraint>& loops, CorrectionMethod method,
+                                   const PoseGraphConfig& graph = {}) {
+  LoopCorrectorConfig cfg;
+  cfg.method = method;
+  cfg.graph = graph;
+  LoopCorrector c(cfg);
+  for (std::size_t i = 0; i < s.odom.poses.size(); ++i) c.add_keyframe(s.odom.poses[i], s.odom.residuals[i]);
+  for (const auto& l : loops) REQUIRE(c.add_loop(l).ok);
+  return c.corrected_poses();
+}
+
+double max_position_difference(const std::vector<Eigen::Isometry3d>& a, const std::vector<Eigen::Isometry3d>& b) {
+  double m = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, (a[i].translation() - b[i].translation()).norm());
+  return m;
+}
+}  // namespace
+
+TEST_CASE("graph: synthetic laps, error drops >= 2x, loop ends coincide, at least as good as the heuristic") {
+  const Scenario s = make_scenario(2400, 11);
+  REQUIRE(s.loops.size() >= 4);
+  const TrajectoryError before = trajectory_error(s.odom.poses, s.gt);
+  const auto heuristic = run(s, s.loops, CorrectionMethod::kHeuristic);
+  const TrajectoryError eh = trajectory_error(heuristic, s.gt);
+  for (CorrectionMethod m : {CorrectionMethod::kHeuristicThenGraph, CorrectionMethod::kGraph}) {
+    const auto poses = run(s, s.loops, m);
+    const TrajectoryError e = trajectory_error(poses, s.gt);
+    INFO(to_string(m) << ": mean " << before.mean_closest << " -> " << e.mean_closest << " (heuristic " << eh.mean_closest << "), median "
+                      << before.median_closest << " -> " << e.median_closest << ", ATE " << before.ate_rmse << " -> " << e.ate_rmse
+                      << " (heuristic " << eh.ate_rmse << ")");
+    CHECK(before.mean_closest / e.mean_closest >= 2.0);
+    CHECK(before.median_closest / e.median_closest >= 2.0);
+    CHECK(e.mean_closest <= eh.mean_closest * 1.001);
+    CHECK(e.ate_rmse <= eh.ate_rmse * 1.001);
+    for (const auto& l : s.loops) {
+      const auto [t, r] = loop_end_error(poses, l);
+      CHECK(t < 0.1);
+      CHECK(r < 0.5 * kDeg);
+    }
+  }
+}
+
+TEST_CASE("graph: a wrong loop (5 m off) beside true loops moves the result by less than 0.5 m") {
+  const Scenario s = make_scenario(2400, 12);
+  REQUIRE(s.loops.size() >= 4);
+  // The wrong loop joins keyframes 30 frames after a true loop, with its transform shifted 5 m sideways.
+  LoopConstraint bad;
+  bad.query_index = s.loops[2].query_index + 30;
+  bad.match_index = s.loops[2].match_index + 30;
+  bad.T_match_query = Eigen::Translation3d(0.0, 5.0, 0.0) * (s.gt[bad.match_index].inverse() * s.gt[bad.query_index]);
+  std::vector<LoopConstraint> with_bad = s.loops;
+  with_bad.insert(with_bad.begin() + 3, bad);
+  for (CorrectionMethod m : {CorrectionMethod::kHeuristicThenGraph, CorrectionMethod::kGraph}) {
+    const auto clean = run(s, s.loops, m);
+    const auto dirty = run(s, with_bad, m);
+    const double moved = max_position_difference(clean, dirty);
+    INFO(to_string(m) << ": max pose shift from the wrong loop " << moved << " m");
+    CHECK(moved < 0.5);
+  }
+  // Without a robust kernel the same loop does bend the map (so the test above measures the kernel).
+  PoseGraphConfig plain;
+  plain.loop_loss = RobustLoss::kNone;
+  const double moved_plain =
+      max_position_difference(run(s, s.loops, CorrectionMethod::kHeuristicThenGraph, plain), run(s, with_bad, CorrectionMethod::kHeuristicThenGraph, plain));
+  INFO("no kernel: " << moved_plain << " m");
+  CHECK(moved_plain > 1.0);
+}
+
+TEST_CASE("graph: zero-length loop ignored, same loop twice, loop to the first pose") {
+  const Scenario s = make_scenario(900, 13);
+  REQUIRE(!s.loops.empty());
+  const LoopConstraint l = s.loops[0];
+  const auto once = optimize_pose_graph(s.odom.poses, s.odom.residuals, {l}, {}, {});
+  REQUIRE(once.poses.size() == s.odom.poses.size());
+  LoopConstraint zero;
+  zero.query_index = zero.match_index = 400;
+  zero.T_match_query.translation() = Eigen::Vector3d(3, 0, 0);
+  const auto with_zero = optimize_pose_graph(s.odom.poses, s.odom.residuals, {l, zero}, {}, {});
+  CHECK(max_position_difference(once.poses, with_zero.poses) < 1e-6);
+  const auto twice = optimize_pose_graph(s.odom.poses, s.odom.residuals, {l, l}, {}, {});
+  // The same pair twice counts twice (double weight against odometry): a slightly different, still closed result.
+  CHECK(max_position_difference(once.poses, twice.poses) < 0.5);
+  for (const auto& r : {once, twice}) {
+    const auto [t, a] = loop_end_error(r.poses, l);
+    CHECK(t < 0.1);
+    CHECK(a < 0.5 * kDeg);
+  }
+  // Loop to the very first pose (which is the fixed gauge node).
+  LoopConstraint first;
+  first.match_index = 0;
+  first.query_index = l.query_index;
+  first.T_match_query = s.gt[0].inverse() * s.gt[l.query_index];
+  const auto r0 = optimize_pose_graph(s.odom.poses, s.odom.residuals, {first}, {}, {});
+  CHECK(r0.poses[0].isApprox(s.odom.poses[0], 1e-9));
+  const auto [t0, a0] = loop_end_error(r0.poses, first);
+  CHECK(t0 < 0.1);
+  CHECK(a0 < 0.5 * kDeg);
+  // Empty and single-pose inputs are defined.
+  CHECK(optimize_pose_graph({}, {}, {}, {}, {}).poses.empty());
+  CHECK(optimize_pose_graph({Eigen::Isometry3d::Identity()}, {}, {l}, {}, {}).poses.size() == 1);
+}
+
+TEST_CASE("graph: chain-reduced solve matches the full graph") {
+  const Scenario s = make_scenario(1500, 14);
+  const auto warm = correct_heuristic_all(s.odom.poses, s.odom.residuals, s.loops, {});
+  PoseGraphConfig full;
+  full.reduce_chains = false;
+  const auto a = optimize_pose_graph(s.odom.poses, s.odom.residuals, s.loops, warm, {});
+  const auto b = optimize_pose_graph(s.odom.poses, s.odom.residuals, s.loops, warm, full);
+  const TrajectoryError ea = trajectory_error(a.poses, s.gt), eb = trajectory_error(b.poses, s.gt);
+  INFO("reduced " << ea.ate_rmse << " m (" << a.ms << " ms), full " << eb.ate_rmse << " m (" << b.ms << " ms)");
+  CHECK(max_position_difference(a.poses, b.poses) < 0.5);
+  CHECK(ea.ate_rmse <= eb.ate_rmse * 1.2 + 0.05);
+}
+
+TEST_CASE("graph: ground-plane constraints (Ren 2019, 3.4.2) pull roll, pitch and height back onto the plane") {
+  // Flat drive, odometry with strong roll/pitch random walk; every 10th keyframe sees the ground 1.8 m below it.
+  Scenario s;
+  s.gt = make_lap_trajectory(1500);
+  for (auto& T : s.gt) T.translation().z() = 0.0;
+  DriftConfig drift;
+  drift.seed = 15;
+  drift.tilt_noise = 0.002;
+  s.odom = inject_drift(s.gt, drift);
+  s.loops = find_ground_truth_loops(s.gt, 1.0, 100, 150, 0);
+  std::vector<PlaneObservation> planes;
+  const Eigen::Vector3d n_w(0, 0, 1);
+  const double d_w = 1.8;  // ground: z = -1.8
+  for (std::size_t i = 0; i < s.gt.size(); i += 10) {
+    PlaneObservation o;
+    o.index = static_cast<int>(i);
+    o.plane_sensor.head<3>() = s.gt[i].linear().transpose() * n_w;
+    o.plane_sensor[3] = d_w + n_w.dot(s.gt[i].translation());
+    planes.push_back(o);
+  }
+  const auto warm = correct_heuristic_all(s.odom.poses, s.odom.residuals, s.loops, {});
+  PoseGraphConfig with_planes;
+  with_planes.use_plane_constraints = true;
+  const auto a = optimize_pose_graph(s.odom.poses, s.odom.residuals, s.loops, warm, {});
+  const auto b = optimize_pose_graph(s.odom.poses, s.odom.residuals, s.loops, warm, with_planes, planes);
+  auto height_rms = [&](const std::vector<Eigen::Isometry3d>& p) {
+    double sum = 0;
+    for (const auto& T : p) sum += T.translation().z() * T.translation().z();
+    return std::sqrt(sum / static_cast<double>(p.size()));
+  };
+  auto tilt_rms = [&](const std::vector<Eigen::Isometry3d>& p) {
+    double sum = 0;
+    for (const auto& T : p) {
+      const double c = std::clamp(T.linear().col(2).dot(Eigen::Vector3d::UnitZ()), -1.0, 1.0);
+      sum += std::acos(c) * std::acos(c);
+    }
+    return std::sqrt(sum / static_cast<double>(p.size()));
+  };
+  INFO("height rms " << height_rms(a.poses) << " -> " << height_rms(b.poses) << " m, tilt rms " << tilt_rms(a.poses) / kDeg << " -> "
+                     << tilt_rms(b.poses) / kDeg << " deg");
+  REQUIRE(b.planes.size() == 1);
+  CHECK(height_rms(b.poses) < 0.5 * height_rms(a.poses));
+  CHECK(tilt_rms(b.poses) < 0.5 * tilt_rms(a.poses));
+  CHECK(std::abs(b.planes[0][2]) > 0.999);
+}
