@@ -17,7 +17,6 @@
 
 #include <nanoflann.hpp>
 
-#include "loopd/core/kdtree.hpp"
 #include "loopd/core/stopwatch.hpp"
 
 namespace loopd {
@@ -31,11 +30,12 @@ constexpr int kCheckEvery = 16;              // early-termination check period [
 
 inline double deg2rad(double d) { return d * kPi / 180.0; }
 
-// k-d tree for the LCP test (Sec. 4.2.3). The test only asks "is any target point within delta?", so the search
-// stops at the first point inside the delta ball instead of looking for the nearest one.
-class LcpTree {
+// k-d tree (nanoflann, like core/kdtree.hpp) with the three searches 4PCS needs, without per-query allocation:
+// radius (coincident intermediate points, Sec. 4.2.2), "any point within delta?" for the LCP test (Sec. 4.2.3; the
+// search stops at the first point inside the ball) and nearest-within-radius for the refinement.
+class PointTree {
  public:
-  explicit LcpTree(const std::vector<Eigen::Vector3f>& pts) : adaptor_{&pts}, tree_(3, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(10)) {
+  explicit PointTree(const std::vector<Eigen::Vector3f>& pts) : adaptor_{&pts}, tree_(3, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(10)) {
     if (!pts.empty()) tree_.buildIndex();
   }
   bool any_within(const Eigen::Vector3f& q, float radius_sq) const {
@@ -43,6 +43,19 @@ class LcpTree {
     AnyWithin rs{radius_sq, false};
     tree_.findNeighbors(rs, q.data(), nanoflann::SearchParams());
     return rs.found;
+  }
+  /// Indices of all points within sqrt(radius_sq), appended to `out` (unsorted).
+  void radius(const Eigen::Vector3f& q, float radius_sq, std::vector<int>* out) const {
+    if (adaptor_.pts->empty()) return;
+    Collect rs{radius_sq, out};
+    tree_.findNeighbors(rs, q.data(), nanoflann::SearchParams());
+  }
+  /// Nearest point within sqrt(radius_sq); -1 if none.
+  int nearest_within(const Eigen::Vector3f& q, float radius_sq) const {
+    if (adaptor_.pts->empty()) return -1;
+    NearestWithin rs{radius_sq, -1};
+    tree_.findNeighbors(rs, q.data(), nanoflann::SearchParams());
+    return rs.index;
   }
 
  private:
@@ -61,6 +74,29 @@ class LcpTree {
     bool addPoint(float dist, std::uint32_t) {
       if (dist < radius_sq) found = true;
       return !found;  // false stops the search
+    }
+  };
+  struct Collect {
+    float radius_sq;
+    std::vector<int>* out;
+    bool full() const { return true; }
+    float worstDist() const { return radius_sq; }
+    bool addPoint(float dist, std::uint32_t i) {
+      if (dist < radius_sq) out->push_back(static_cast<int>(i));
+      return true;
+    }
+  };
+  struct NearestWithin {
+    float best_sq;
+    int index;
+    bool full() const { return true; }
+    float worstDist() const { return best_sq; }
+    bool addPoint(float dist, std::uint32_t i) {
+      if (dist < best_sq) {
+        best_sq = dist;
+        index = static_cast<int>(i);
+      }
+      return true;
     }
   };
   using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Adaptor>, Adaptor, 3, std::uint32_t>;
@@ -267,7 +303,7 @@ std::vector<Eigen::Vector3f> lcp_sample(const std::vector<Eigen::Vector3f>& pts,
 
 // LCP count of T over sample[begin, end) added to `count`; returns -1 as soon as `must_reach` cannot be reached any
 // more (early termination, Sec. 4.2.3).
-int lcp_count(const Eigen::Isometry3d& T, const std::vector<Eigen::Vector3f>& sample, int begin, int end, int count, const LcpTree& tree,
+int lcp_count(const Eigen::Isometry3d& T, const std::vector<Eigen::Vector3f>& sample, int begin, int end, int count, const PointTree& tree,
               float delta_sq, int must_reach) {
   const Eigen::Matrix3f R = T.linear().cast<float>();
   const Eigen::Vector3f t = T.translation().cast<float>();
@@ -334,14 +370,27 @@ FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, 
   const float cop = static_cast<float>(cfg.coplanar_tolerance);
   const float min_len = static_cast<float>(cfg.min_base_width - cfg.pair_distance_tolerance);
   const float cos_same_plane = static_cast<float>(std::cos(deg2rad(15.0)));
+  // Only lengths some base diagonal can use are kept: a table over 0.1 m length bins.
+  constexpr float kLenBin = 0.1f;
+  std::vector<char> wanted;
+  for (const Base& b : bases)
+    for (float len : {b.len1, b.len2}) {
+      const int lo = std::max(0, static_cast<int>((len - static_cast<float>(cfg.pair_distance_tolerance)) / kLenBin) - 1);
+      const int hi = static_cast<int>((len + static_cast<float>(cfg.pair_distance_tolerance)) / kLenBin) + 1;
+      if (static_cast<int>(wanted.size()) <= hi) wanted.resize(static_cast<std::size_t>(hi + 1), 0);
+      for (int k = lo; k <= hi; ++k) wanted[static_cast<std::size_t>(k)] = 1;
+    }
+  const float max_len = static_cast<float>(wanted.size()) * kLenBin;
   std::vector<Pair> pairs;
   for (int i = 0; i < static_cast<int>(pool.size()); ++i) {
     const auto& pi = pool[static_cast<std::size_t>(i)];
     const Eigen::Vector4f& Pi = target_seg.clusters[static_cast<std::size_t>(pi.cluster)].plane;
     for (int j = i + 1; j < static_cast<int>(pool.size()); ++j) {
       const auto& pj = pool[static_cast<std::size_t>(j)];
-      const float d = (pi.p - pj.p).norm();
-      if (d < min_len) continue;
+      const float d2 = (pi.p - pj.p).squaredNorm();
+      if (d2 < min_len * min_len || d2 >= max_len * max_len) continue;
+      const float d = std::sqrt(d2);
+      if (!wanted[static_cast<std::size_t>(d / kLenBin)]) continue;
       if (pj.cluster != pi.cluster) {
         const Eigen::Vector4f& Pj = target_seg.clusters[static_cast<std::size_t>(pj.cluster)].plane;
         if (std::abs(Pi.head<3>().dot(Pj.head<3>())) < cos_same_plane) continue;
@@ -350,13 +399,12 @@ FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, 
       pairs.push_back({i, j, d});
     }
   }
-  std::stable_sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.dist < b.dist; });
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.dist < b.dist || (a.dist == b.dist && (a.i < b.i || (a.i == b.i && a.j < b.j))); });
   if (pairs.empty()) return fail("no pair of target plane points as long as a base diagonal");
 
   // LCP scoring data (Sec. 4.2.3).
   const std::vector<Eigen::Vector3f> sample = lcp_sample(source_points, source_seg, cfg);
-  const LcpTree target_tree(target_points);
-  const KdTree3f nn_tree(target_points);  // nearest neighbours for the refinement
+  const PointTree target_tree(target_points);
   const float delta_sq = static_cast<float>(cfg.delta * cfg.delta);
   const int n_sample = static_cast<int>(sample.size());
   const int prescreen_n = std::min(cfg.prescreen_points, n_sample);
@@ -367,6 +415,8 @@ FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, 
   const float e_tol = static_cast<float>(cfg.intermediate_tolerance);
 
   std::vector<Candidate> all;
+  std::vector<int> pre;  // prescore per candidate
+  int best_pre = 0;
   std::vector<Eigen::Vector3f> e2;
   std::vector<std::pair<int, int>> e2_pair;
   std::vector<int> hits;
@@ -410,7 +460,7 @@ FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, 
       }
     }
     if (e2.empty()) continue;
-    const KdTree3f e2_tree(e2);
+    const PointTree e2_tree(e2);
     // Intermediate points of the first diagonal with r1; coincident e1/e2 + rigid check = congruent set.
     cands.clear();
     const auto r1 = pair_range(base.len1);
@@ -432,7 +482,7 @@ FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, 
         if (!dz_ok(a, b, dz1, base.len1)) continue;
         const Eigen::Vector3f e1 = a + base.r1 * (b - a);
         hits.clear();
-        e2_tree.radius(e1, e_tol, &hits);
+        e2_tree.radius(e1, e_tol * e_tol, &hits);
         std::sort(hits.begin(), hits.end());
         const Eigen::Vector3f u = (b - a) / it->dist;
         const Eigen::Vector4f& plane = target_seg.clusters[static_cast<std::size_t>(pool[static_cast<std::size_t>(i)].cluster)].plane;
@@ -471,21 +521,26 @@ FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, 
       cands.resize(w);
     }
 
+    // Prescore (LCP on the first sample points) right away, so that a base giving a clear winner ends the search.
+    const std::size_t first = all.size();
     all.insert(all.end(), cands.begin(), cands.end());
+    pre.resize(all.size(), 0);
+    const int n_new = static_cast<int>(cands.size());
+#pragma omp parallel for num_threads(cfg.num_threads) schedule(dynamic, 8)
+    for (int ci = 0; ci < n_new; ++ci)
+      pre[first + static_cast<std::size_t>(ci)] = lcp_count(all[first + static_cast<std::size_t>(ci)].T, sample, 0, prescreen_n, 0, target_tree, delta_sq, 0);
+    for (std::size_t ci = first; ci < all.size(); ++ci) best_pre = std::max(best_pre, pre[ci]);
+    if (best_pre >= cfg.early_stop_prescore * prescreen_n) break;
   }
   res.congruent_sets = static_cast<int>(all.size());
   if (all.empty()) return fail("no congruent set found for any of " + std::to_string(res.bases_tried) + " bases");
 
   // LCP of every congruent set's transform (Sec. 4.2.3), in three deterministic steps (the same on any number of
   // threads, as each candidate's score depends only on the candidate and on bests fixed before its block):
-  //  a) a prescore on the first points of the scrambled sample,
+  //  a) a prescore on the first points of the scrambled sample (done per base above),
   //  b) the full LCP of the best prescored ones, with early termination against the best so far,
   //  c) a closest-point refinement of the leaders; the highest LCP wins (ties: lowest index).
   const int n_all = static_cast<int>(all.size());
-  std::vector<int> pre(all.size(), 0);
-#pragma omp parallel for num_threads(cfg.num_threads) schedule(dynamic, 8)
-  for (int ci = 0; ci < n_all; ++ci)
-    pre[static_cast<std::size_t>(ci)] = lcp_count(all[static_cast<std::size_t>(ci)].T, sample, 0, prescreen_n, 0, target_tree, delta_sq, 0);
   std::vector<int> order(all.size());
   for (int ci = 0; ci < n_all; ++ci) order[static_cast<std::size_t>(ci)] = ci;
   std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return pre[static_cast<std::size_t>(x)] > pre[static_cast<std::size_t>(y)]; });
@@ -521,9 +576,8 @@ FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, 
       std::vector<Eigen::Vector3d> s_in, t_in;
       for (const auto& p : sample) {
         const Eigen::Vector3f q = (T * p.cast<double>()).cast<float>();
-        int idx = 0;
-        float d2 = 0;
-        if (nn_tree.nearest(q, &idx, &d2) && d2 <= delta_sq) {
+        const int idx = target_tree.nearest_within(q, delta_sq);
+        if (idx >= 0) {
           s_in.push_back(p.cast<double>());
           t_in.push_back(target_points[static_cast<std::size_t>(idx)].cast<double>());
         }

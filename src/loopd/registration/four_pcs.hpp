@@ -27,6 +27,7 @@ struct FourPcsConfig {
   double dedupe_translation = 0.4;         ///< [m] translation step of that pose cell
   int lcp_sample_points = 600;             ///< source points scored for LCP (deterministic scrambled subsample); 0: all
   int prescreen_points = 64;               ///< every candidate is first scored on this many sample points
+  double early_stop_prescore = 0.7;        ///< no further bases once a candidate's prescore fraction reaches this
   int max_full_scores = 32;                ///< the best prescored candidates get the full LCP (early-terminated)
   int refine_candidates = 3;               ///< LCP leaders refined by closest points; the best refined LCP wins
   bool lcp_exclude_ground = true;          ///< leave the source ground plane out of the LCP (it fits any yaw)
