@@ -99,6 +99,21 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
   return r;
 }
 
+CorrectionResult LoopCorrector::add_loops(const std::vector<LoopConstraint>& loops) {
+  const int n = static_cast<int>(odometry_.size());
+  int skipped = 0;
+  for (const LoopConstraint& l : loops) {
+    if (l.query_index < 0 || l.match_index < 0 || l.query_index >= n || l.match_index >= n || l.query_index == l.match_index) {
+      ++skipped;
+      continue;
+    }
+    loops_.push_back(l);
+  }
+  CorrectionResult r = recorrect_all();
+  if (skipped) r.reason = std::to_string(skipped) + " loop(s) skipped (zero length or index out of range); " + r.reason;
+  return r;
+}
+
 CorrectionResult LoopCorrector::recorrect_all() {
   CorrectionResult r;
   r.method = config_.method;

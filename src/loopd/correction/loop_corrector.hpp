@@ -58,6 +58,10 @@ class LoopCorrector {
   /// (ok = false, nothing changes); the same keyframe pair twice is accepted (the graph averages them).
   CorrectionResult add_loop(const LoopConstraint& loop);
 
+  /// @brief Batch form (offline): stores all valid loops, then corrects once with recorrect_all(). Loops with bad
+  /// indices or zero length are skipped and counted in `reason`.
+  CorrectionResult add_loops(const std::vector<LoopConstraint>& loops);
+
   /// @brief Re-corrects from odometry with all loops (e.g. after changing the method).
   CorrectionResult recorrect_all();
 
