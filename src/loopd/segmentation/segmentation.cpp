@@ -427,10 +427,13 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
         if (rw_lo < 0 || c < col_of(rw_lo)) rw_lo = mi;
         if (rw_hi < 0 || c > col_of(rw_hi)) rw_hi = mi;
       }
+      // Members off the fitted plane (a balcony merged through a smooth edge) are no hull candidates: bases built on
+      // the hull must be coplanar.
+      const float off_plane = static_cast<float>(3.0 * config.plane_rms_tolerance);
       cand.clear();
       for (const auto* v : {&col_lo, &col_hi, &row_lo, &row_hi})
         for (int mi : *v)
-          if (mi >= 0) cand.push_back(mi);
+          if (mi >= 0 && std::abs(cl.plane.head<3>().dot(pts[static_cast<std::size_t>(mi)]) + cl.plane.w()) < off_plane) cand.push_back(mi);
       std::sort(cand.begin(), cand.end());
       cand.erase(std::unique(cand.begin(), cand.end()), cand.end());
       pts2.resize(cand.size());
