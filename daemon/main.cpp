@@ -18,7 +18,7 @@ void print_summary(const loopd::RunSummary& s, bool replay) {
                "loopd: %s finished in %.1f s%s: scans %lld, poses %lld, keyframes %lld, loops accepted %lld, rejected %lld; "
                "malformed %lld, invalid scans %lld, scans without pose %lld, shed %lld, dropped %lld\n",
                replay ? "replay" : "live run", s.seconds,
-               replay && s.seconds > 0 ? (" (" + std::to_string(static_cast<int>(s.data_seconds / s.seconds)) + "x real time)").c_str() : "",
+               replay && s.seconds > 0 ? (" (" + std::to_string(s.data_seconds / s.seconds).substr(0, 5) + "x real time)").c_str() : "",
                static_cast<long long>(s.scans_received), static_cast<long long>(s.poses_received), static_cast<long long>(e.keyframes),
                static_cast<long long>(e.loops_accepted), static_cast<long long>(e.loops_rejected), static_cast<long long>(s.malformed),
                static_cast<long long>(e.invalid_scans), static_cast<long long>(e.dropped_no_pose), static_cast<long long>(e.shed),

@@ -44,6 +44,8 @@ int main(int argc, char** argv) {
   app.add_option("--sensor", cfg.sensor, "lidar model (see --list-sensors)")->capture_default_str();
   app.add_option("--scans", cfg.num_scans, "number of scans")->capture_default_str();
   app.add_option("--seed", cfg.seed, "town / noise / drift seed")->capture_default_str();
+  app.add_option("--route", cfg.route, "route: town (three visits: block loop, long loop with lane offset, opposite direction) or block (the block loop, lap after lap)")
+      ->capture_default_str();
   app.add_option("--speed", cfg.speed, "vehicle speed [m/s]")->capture_default_str();
   app.add_option("--rate", cfg.rate_hz, "scan rate [Hz]")->capture_default_str();
   app.add_option("--heading-bias", cfg.heading_bias_deg_per_100m, "odometry heading bias [deg/100 m]")->capture_default_str();

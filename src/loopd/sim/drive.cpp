@@ -31,9 +31,16 @@ struct Waypoint {
 };
 
 /// One lap of the route (cyclic: the last edge returns to the first waypoint).
-std::vector<Waypoint> route_waypoints() {
+std::vector<Waypoint> route_waypoints(const std::string& route) {
   std::vector<Waypoint> w;
   auto add = [&](int i, int j, int v, bool off = false) { w.push_back({i, j, v, off}); };
+  if (route == "block") {
+    // Three laps of block (0..1, 0..1), counter-clockwise; the third starts with the lane offset.
+    for (int v = 0; v < 3; ++v) {
+      add(0, 0, v, v == 2); add(1, 0, v); add(1, 1, v); add(0, 1, v);
+    }
+    return w;
+  }
   // Visit 0: short loop around block (0..1, 0..1), counter-clockwise.
   add(0, 0, 0); add(1, 0, 0); add(1, 1, 0); add(0, 1, 0);
   // Visit 1: long loop around (0..2, 0..2), counter-clockwise: (0,0)->(1,0) again in the same direction (first half
@@ -58,7 +65,7 @@ double smoothstep(double x) {
 
 /// Dense samples of one lap of the driven path (lane offset applied), arc length filled.
 std::vector<PathSample> build_path(const Town& town, const DriveConfig& c) {
-  const auto w = route_waypoints();
+  const auto w = route_waypoints(c.route);
   const int K = static_cast<int>(w.size());
   std::vector<Eigen::Vector2d> P(static_cast<std::size_t>(K));
   for (int k = 0; k < K; ++k) P[static_cast<std::size_t>(k)] = town.node(w[static_cast<std::size_t>(k)].i, w[static_cast<std::size_t>(k)].j);
@@ -127,6 +134,7 @@ std::vector<PathSample> build_path(const Town& town, const DriveConfig& c) {
 std::optional<std::string> DriveConfig::validate() const {
   if (!lidar_model_from_name(sensor)) return "unknown sensor '" + sensor + "'";
   if (num_scans < 1) return std::string("num_scans must be >= 1");
+  if (route != "town" && route != "block") return "unknown route '" + route + "' (town, block)";
   if (!(speed > 0.0 && speed < 60.0)) return std::string("speed must be in (0, 60) m/s");
   if (!(rate_hz > 0.0 && rate_hz <= 100.0)) return std::string("rate_hz must be in (0, 100]");
   if (!(sensor_height > 0.2)) return std::string("sensor_height must be > 0.2 m");

@@ -24,6 +24,10 @@ namespace loopd {
 /// Parked cars marked movable change state with the visit (later laps continue counting visits: lap * 3 + v).
 struct DriveConfig {
   std::string sensor = "hdl64";      ///< lidar model name (lidar_model_from_name)
+  /// Route: "town" (the three-visit lap above) or "block" (the short block loop driven again and again in the same
+  /// direction, cars changing with every lap, the third lap starting in the lane-offset position): many revisits in
+  /// few scans, for end-to-end tests and the demo.
+  std::string route = "town";
   int num_scans = 1000;
   std::uint64_t seed = 1;            ///< town, noise and odometry drift seed
   double speed = 10.0;               ///< [m/s]
