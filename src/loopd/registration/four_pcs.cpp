@@ -404,6 +404,10 @@ FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, 
 
   // LCP scoring data (Sec. 4.2.3).
   const std::vector<Eigen::Vector3f> sample = lcp_sample(source_points, source_seg, cfg);
+  // The refinement keeps the ground: it is what pins height, roll and pitch.
+  FourPcsConfig refine_cfg = cfg;
+  refine_cfg.lcp_exclude_ground = false;
+  const std::vector<Eigen::Vector3f> refine_sample = lcp_sample(source_points, source_seg, refine_cfg);
   const PointTree target_tree(target_points);
   const float delta_sq = static_cast<float>(cfg.delta * cfg.delta);
   const int n_sample = static_cast<int>(sample.size());
@@ -574,7 +578,7 @@ FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, 
     Eigen::Isometry3d T = all[static_cast<std::size_t>(order[oi])].T;
     for (int it = 0; it < cfg.refine_iterations; ++it) {
       std::vector<Eigen::Vector3d> s_in, t_in;
-      for (const auto& p : sample) {
+      for (const auto& p : refine_sample) {
         const Eigen::Vector3f q = (T * p.cast<double>()).cast<float>();
         const int idx = target_tree.nearest_within(q, delta_sq);
         if (idx >= 0) {

@@ -31,7 +31,7 @@ struct FourPcsConfig {
   int max_full_scores = 32;                ///< the best prescored candidates get the full LCP (early-terminated)
   int refine_candidates = 3;               ///< LCP leaders refined by closest points; the best refined LCP wins
   bool lcp_exclude_ground = true;          ///< leave the source ground plane out of the LCP (it fits any yaw)
-  int refine_iterations = 3;               ///< closest-point refinements of the best transform on LCP inliers
+  int refine_iterations = 6;               ///< closest-point refinements (within delta) of the LCP leaders
   int num_threads = 1;                     ///< threads scoring congruent sets (the result does not depend on it)
 
   /// @brief Empty when valid, otherwise what is wrong.
