@@ -27,7 +27,7 @@ struct VerifyConfig {
   double min_lcp_fraction = 0.5;  ///< 4PCS largest-common-point-set share needed to go on (true sim loops 0.67-0.93)
   /// [m] GICP residual (mean corresponding-point distance within the last schedule distance, 0.6 m). ~0.2 m on true
   /// loops at 0.6 m voxels; a uniform scatter inside the 0.6 m gate gives ~0.45 m.
-  double max_icp_residual = 0.3;
+  double max_icp_residual = 0.35;
   double min_icp_fitness = 0.5;      ///< GICP inlier share needed (Vlaminck 2019: "overlap ... should be very high")
   /// Condition number of the translational GICP information (gicp_degeneracy). Street scenes: ~2-30; a featureless
   /// tunnel: thousands.
