@@ -12,7 +12,7 @@ namespace loopd {
 /// @brief Settings of the plane-based 4PCS global registration.
 struct FourPcsConfig {
   double delta = 0.5;                      ///< [m] LCP inlier distance, Vlaminck 2019 Sec. 5.2
-  int max_bases = 12;                      ///< coplanar bases tried (ranked by width, spread over planes)
+  int max_bases = 16;                      ///< coplanar bases tried (ranked by width, spread over planes)
   double min_base_width = 2.0;             ///< [m] both base diagonals must be at least this long
   double pair_distance_tolerance = 0.5;    ///< [m] |q1-q2| must match the base diagonal length within this
   double intermediate_tolerance = 0.5;     ///< [m] radius for coincident intermediate points e1/e2 (Sec. 4.2.2)
@@ -22,7 +22,7 @@ struct FourPcsConfig {
                                            ///< small); also how far a target plane's tilt may differ from the base's. 180: off
   bool use_cluster_points = true;          ///< target pairs also from the downsampled planar-cluster members, not only hulls
   int max_congruent_sets_per_base = 3000;  ///< cap on congruent sets collected per base (fixed order)
-  int max_scored_per_base = 60;            ///< congruent sets kept per base: lowest congruence error first
+  int max_scored_per_base = 90;            ///< congruent sets kept per base: lowest congruence error first
   double dedupe_rotation_deg = 2.0;        ///< [deg] candidates in an already scored pose cell (this yaw step) are skipped
   double dedupe_translation = 0.4;         ///< [m] translation step of that pose cell
   int lcp_sample_points = 600;             ///< source points scored for LCP (deterministic scrambled subsample); 0: all
