@@ -190,3 +190,27 @@ TEST_CASE("graph: ground-plane constraints (Ren 2019, 3.4.2) pull roll, pitch an
   CHECK(tilt_rms(b.poses) < 0.5 * tilt_rms(a.poses));
   CHECK(std::abs(b.planes[0][2]) > 0.999);
 }
+
+TEST_CASE("graph: odometry step information (covariance) decides where the loop error goes") {
+  // Straight 300 m drive; the loop says pose 299 is 2 m left of where odometry put it.
+  std::vector<Eigen::Isometry3d> odom;
+  for (int i = 0; i < 300; ++i) odom.push_back(Eigen::Isometry3d(Eigen::Translation3d(i, 0, 0)));
+  LoopConstraint loop;
+  loop.match_index = 0;
+  loop.query_index = 299;
+  loop.T_match_query = Eigen::Translation3d(299, 2, 0) * Eigen::Isometry3d::Identity();
+  // Stiff steps: 1 mm and 1e-5 rad (rotation must be stiff too, or small turns over the 300 m lever explain 2 m).
+  Eigen::Matrix<double, 6, 6> stiff = Eigen::Matrix<double, 6, 6>::Identity() * 1e6, soft = Eigen::Matrix<double, 6, 6>::Identity();
+  stiff.bottomRightCorner<3, 3>() *= 1e4;
+  soft.bottomRightCorner<3, 3>() *= 1e10;  // only translation is uncertain on the soft steps
+  LoopCorrectorConfig cfg;
+  LoopCorrector c(cfg);
+  for (int i = 0; i < 300; ++i) c.add_keyframe(odom[i], 0.0, (i >= 200 && i < 210) ? soft : stiff);
+  REQUIRE(c.add_loop(loop).ok);
+  const auto& p = c.corrected_poses();
+  // Steps 200..209 take the 2 m sideways; before them nothing moves, after them everything is shifted.
+  CHECK(std::abs(p[150].translation().y()) < 0.05);
+  CHECK(p[250].translation().y() == Approx(2.0).margin(0.05));
+  const auto [t, r] = loop_end_error(p, loop);
+  CHECK(t < 0.1);
+}

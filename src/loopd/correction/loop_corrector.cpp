@@ -47,11 +47,20 @@ int LoopCorrector::add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double r
   odometry_.push_back(T_odom_sensor);
   residuals_.push_back(residual);
   corrected_.push_back(T_map_odom_now * T_odom_sensor);
+  if (!step_information_.empty()) step_information_.push_back(Eigen::Matrix<double, 6, 6>::Zero());
   return static_cast<int>(odometry_.size()) - 1;
 }
 
+int LoopCorrector::add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual, const Eigen::Matrix<double, 6, 6>& step_information) {
+  const int index = add_keyframe(T_odom_sensor, residual);
+  if (step_information.isZero(0.0)) return index;
+  step_information_.resize(odometry_.size(), Eigen::Matrix<double, 6, 6>::Zero());
+  step_information_.back() = step_information;
+  return index;
+}
+
 CorrectionResult LoopCorrector::run_graph(std::vector<Eigen::Isometry3d> warm, CorrectionResult r) {
-  const PoseGraphResult g = optimize_pose_graph(odometry_, residuals_, loops_, warm, config_.graph);
+  const PoseGraphResult g = optimize_pose_graph(odometry_, residuals_, loops_, warm, config_.graph, planes_, step_information_);
   r.ms_graph = g.ms;
   r.graph_iterations = g.iterations;
   r.graph_converged = g.converged;

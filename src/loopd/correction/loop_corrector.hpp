@@ -53,10 +53,17 @@ class LoopCorrector {
   /// @brief Appends a keyframe (odometry pose T_odom_sensor and the residual of the step ending at it, 0 = unknown).
   /// Its corrected pose is T_map_odom() * T_odom_sensor. Returns its index.
   int add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual = 0.0);
+  /// @brief Same, with the 6x6 information (t, r order) of the odometry step ending here (e.g. from the covariance in
+  /// pose_t); the graph then uses it instead of the residual-based sigma for that edge. Zero = unknown.
+  int add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual, const Eigen::Matrix<double, 6, 6>& step_information);
 
   /// @brief Stores the loop and re-corrects the whole trajectory. Zero-length loops and bad indices are rejected
   /// (ok = false, nothing changes); the same keyframe pair twice is accepted (the graph averages them).
   CorrectionResult add_loop(const LoopConstraint& loop);
+
+  /// @brief Adds a ground/roadway plane seen from a keyframe (Ren 2019, Sec. 3.4.2); used by the graph methods when
+  /// config.graph.use_plane_constraints is set, from the next correction on.
+  void add_plane_observation(const PlaneObservation& observation) { planes_.push_back(observation); }
 
   /// @brief Batch form (offline): stores all valid loops, then corrects once with recorrect_all(). Loops with bad
   /// indices or zero length are skipped and counted in `reason`.
@@ -85,6 +92,8 @@ class LoopCorrector {
   std::vector<double> residuals_;
   std::vector<Eigen::Isometry3d> corrected_;
   std::vector<LoopConstraint> loops_;
+  std::vector<PlaneObservation> planes_;
+  std::vector<Eigen::Matrix<double, 6, 6>> step_information_;  ///< empty until a keyframe brings one
   std::vector<std::pair<int, int>> closed_spans_;
   int max_end_index_ = -1;
 };

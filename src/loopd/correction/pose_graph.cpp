@@ -393,6 +393,8 @@ PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odomet
       if (k + 1 < anchors.size() && b > a + 1) {
         std::vector<Eigen::Isometry3d> chain(out.begin() + static_cast<std::ptrdiff_t>(a), out.begin() + static_cast<std::ptrdiff_t>(b) + 1);
         std::vector<double> w(c.begin() + static_cast<std::ptrdiff_t>(a), c.begin() + static_cast<std::ptrdiff_t>(b) + 1);
+        if (have_cov)  // given step covariances: share by their trace
+          for (std::size_t i = a + 1; i <= b; ++i) w[i - a] = odometry_covariance(i).trace();
         LoopConstraint span;
         span.match_index = 0;
         span.query_index = static_cast<int>(b - a);
