@@ -39,7 +39,7 @@ void finite_points(const std::vector<Eigen::Vector3f>& in, const std::vector<Eig
 std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3f>& points, const KdTree3f& tree, int k, int num_threads) {
   std::vector<Eigen::Vector3f> normals(points.size(), Eigen::Vector3f::Zero());
   const int n = static_cast<int>(points.size());
-#pragma omp parallel for num_threads(num_threads) schedule(static)
+#pragma omp parallel for num_threads(num_threads) schedule(dynamic, 128)
   for (int i = 0; i < n; ++i) {
     const Eigen::Vector3f& p = points[static_cast<std::size_t>(i)];
     if (!p.allFinite()) continue;
@@ -109,7 +109,7 @@ Linearization linearize(const std::vector<Eigen::Vector3f>& source, const std::v
   const Eigen::Matrix3d R = T.linear();
   const float max_d2 = static_cast<float>(max_distance * max_distance);
   const Eigen::Isometry3f Tf = T.cast<float>();
-#pragma omp parallel for num_threads(num_threads) schedule(static)
+#pragma omp parallel for num_threads(num_threads) schedule(dynamic, 2)
   for (int blk = 0; blk < num_blocks; ++blk) {
     Linearization& L = blocks[static_cast<std::size_t>(blk)];
     const int end = std::min(n, (blk + 1) * kBlockSize);
