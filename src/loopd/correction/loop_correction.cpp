@@ -96,8 +96,8 @@ HeuristicCorrectionResult apply_heuristic_correction(std::vector<Eigen::Isometry
   // V_e gets exactly its target; everything after it moves rigidly with D.
   poses[static_cast<std::size_t>(e)] = target_e;
   for (int i = e + 1; i < n; ++i) poses[static_cast<std::size_t>(i)] = D * poses[static_cast<std::size_t>(i)];
-  // Keep rotations orthonormal after many corrections.
-  for (int i = s + 1; i < n; ++i) {
+  // Keep rotations orthonormal after many corrections (the rigid tail only multiplies by D, already orthonormal).
+  for (int i = s + 1; i < e; ++i) {
     Eigen::Isometry3d& P = poses[static_cast<std::size_t>(i)];
     P.linear() = Eigen::Quaterniond(P.linear()).normalized().toRotationMatrix();
   }
