@@ -115,10 +115,13 @@ __kernel void m2dp_extent(__global const float* xs, __global const float* ys, __
 // Pass 3: projection and binning of all p*q planes in one launch; global size (chunks, planes).
 // Vlaminck 2019 Sec. 4.1: a point projects onto plane X_j at (u, v) = (e1.p, e2.p) relative to the
 // projected centroid; rings have outer radii k^2 r (k = 1..l, l^2 r = farthest point) and each ring
-// has t sectors over (-pi, pi]. Ring: count of squared edges (k^2 r)^2 <= u^2 + v^2. Sector: the
-// half plane from the sign of v, then the count of sector boundaries alpha_k (k = 1..t/2-1) the
-// direction has passed, by the sign of the cross product (cos alpha_k, sin alpha_k) x (u, v).
-// bin_params = {(k^2 r)^2 for k = 1..l-1, then cos alpha_k, sin alpha_k for k = 1..t/2-1}.
+// has t sectors over (-pi, pi]. Ring: count of squared edges (k^2 r)^2 <= u^2 + v^2. Sector: the half
+// turn from the sign of v, the quarter from the sign of the folded u, and inside the quarter the count
+// of boundaries with |v| >= |u| tan(j 2 pi / t), mirrored in the second quarter (the same arithmetic
+// as bin_of() and the CPU loops in src/loopd/descriptor: no sqrt, no atan2, no atomics).
+// Each work-item runs element-wise loops over sub-blocks of its chunk (vectorised by the kernel
+// compiler as plain loops) and counts into private 16-bit histograms.
+// bin_params = {(k^2 r)^2 for k = 1..l-1, then tan(j 2 pi / t) for j = 1..t/4-1}.
 // partial[(chunk * planes + plane) * l*t + ring * t + sector] = count.
 __kernel void m2dp_bin(__global const float* xs, __global const float* ys, __global const float* zs, const int n,
                        __global const float* planes, __constant float* bin_params, __global uint* partial) {
@@ -131,35 +134,34 @@ __kernel void m2dp_bin(__global const float* xs, __global const float* ys, __glo
   const float e2x = pl[4], e2y = pl[5], e2z = pl[6], d2 = pl[7];
   float edge2[M2DP_L];
   for (int k = 0; k < M2DP_L - 1; ++k) edge2[k] = bin_params[k];
-  float cs[M2DP_HALF_T], sn[M2DP_HALF_T];
-  for (int k = 0; k < M2DP_HALF_T - 1; ++k) {
-    cs[k] = bin_params[M2DP_L - 1 + 2 * k];
-    sn[k] = bin_params[M2DP_L - 1 + 2 * k + 1];
-  }
+  float tq[M2DP_T / 4 + 1];
+  for (int j = 0; j < M2DP_T / 4 - 1; ++j) tq[j] = bin_params[M2DP_L - 1 + j];
 
-  // Four interleaved histograms so that consecutive increments of one bin do not wait on each other.
-  uint hist[4][M2DP_LT];
-  for (int b = 0; b < M2DP_LT; ++b) hist[0][b] = hist[1][b] = hist[2][b] = hist[3][b] = 0u;
+  uint total[M2DP_LT];
+  for (int b = 0; b < M2DP_LT; ++b) total[b] = 0u;
+  ushort hist[4][M2DP_LT];
   uchar bins[M2DP_SUBBLOCK];
 
   for (int base = begin; base < end; base += M2DP_SUBBLOCK) {
     const int m = min(M2DP_SUBBLOCK, end - base);
-    // Compute loop: independent per point, no memory conflicts (vectorisable).
+    // Compute loop: independent per point, comparisons only (vectorisable).
     for (int i = 0; i < m; ++i) {
       const float x = xs[base + i], y = ys[base + i], z = zs[base + i];
       const float u = e1x * x + e1y * y + e1z * z + d1;
       const float v = e2x * x + e2y * y + e2z * z + d2;
       const float r2 = u * u + v * v;
-      int ring = 0;
-      for (int k = 0; k < M2DP_L - 1; ++k) ring += (r2 >= edge2[k]) ? 1 : 0;
-      const int lower = (v < 0.0f) ? 1 : 0;
-      const float su = lower ? -u : u;
-      const float sv = lower ? -v : v;
-      int sector = lower ? 0 : M2DP_HALF_T;
-      for (int k = 0; k < M2DP_HALF_T - 1; ++k) sector += (sv * cs[k] - su * sn[k] >= 0.0f) ? 1 : 0;
-      bins[i] = (uchar)(ring * M2DP_T + sector);
+      float ring = 0.0f;
+      for (int k = 0; k < M2DP_L - 1; ++k) ring += (r2 >= edge2[k]) ? 1.0f : 0.0f;
+      const float au = fabs(u), av = fabs(v);
+      float kq = 0.0f;
+      for (int j = 0; j < M2DP_T / 4 - 1; ++j) kq += (av >= au * tq[j]) ? 1.0f : 0.0f;
+      const int lower = v < 0.0f;
+      const int mirrored = lower ? (u > 0.0f) : (u < 0.0f);
+      const float sector = (lower ? 0.0f : (float)M2DP_HALF_T) + (mirrored ? (float)(M2DP_HALF_T - 1) - kq : kq);
+      bins[i] = (uchar)(int)(ring * (float)M2DP_T + sector);
     }
-    // Counting loop.
+    // Counting loop: four interleaved histograms so that increments of one bin do not wait on each other.
+    for (int b = 0; b < M2DP_LT; ++b) hist[0][b] = hist[1][b] = hist[2][b] = hist[3][b] = (ushort)0;
     int i = 0;
     for (; i + 4 <= m; i += 4) {
       hist[0][bins[i]]++;
@@ -168,9 +170,10 @@ __kernel void m2dp_bin(__global const float* xs, __global const float* ys, __glo
       hist[3][bins[i + 3]]++;
     }
     for (; i < m; ++i) hist[0][bins[i]]++;
+    for (int b = 0; b < M2DP_LT; ++b) total[b] += (uint)hist[0][b] + hist[1][b] + hist[2][b] + hist[3][b];
   }
   __global uint* out = partial + (chunk * M2DP_NPLANES + plane) * M2DP_LT;
-  for (int b = 0; b < M2DP_LT; ++b) out[b] = hist[0][b] + hist[1][b] + hist[2][b] + hist[3][b];
+  for (int b = 0; b < M2DP_LT; ++b) out[b] = total[b];
 }
 
 // Pass 4: the signature matrix A (planes x l*t) as the sum of the per-chunk partial histograms.

@@ -30,7 +30,7 @@ std::optional<M2dpFrame> frame_from_string(const std::string& name);  ///< "pca"
 /// @brief M2DP parameters (He et al. 2016, IROS; Vlaminck et al. 2019, Sensors, Sec. 4.1 and 5: l=8, t=16, p=4, q=16).
 struct M2dpConfig {
   int num_rings_l = 8;         ///< l: concentric rings per plane, outer radii k^2 r, k = 1..l (Vlaminck 2019 Sec. 4.1)
-  int num_sectors_t = 16;      ///< t: sectors per ring over (-pi, pi]; must be even
+  int num_sectors_t = 16;      ///< t: sectors per ring over (-pi, pi]; a multiple of 4 (comparison binning per quarter turn)
   int num_azimuths_p = 4;      ///< p: plane azimuths, stride pi/p starting at -pi/2 (He 2016)
   int num_elevations_q = 16;   ///< q: plane elevations, stride pi/(2q) starting at 0 (He 2016)
   /// Frame of the planes. Default kGravityAligned: on the simulated drive and on KITTI revisits it separates

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include "../../../kernels/m2dp_shared.h"
 #include "loopd/descriptor/m2dp_internal.hpp"
@@ -11,6 +12,78 @@
 namespace loopd::detail {
 
 namespace {
+
+/// Points per binning block: coordinates (12 B/point) and temporaries (17 B/point) of a block stay in L1/L2.
+constexpr int kBinBlock = 1024;
+
+/// Per-thread temporaries of one block.
+struct BinScratch {
+  alignas(64) float u[kBinBlock];
+  alignas(64) float v[kBinBlock];
+  alignas(64) float r2[kBinBlock];
+  alignas(64) float ring[kBinBlock];
+  alignas(64) float k[kBinBlock];
+  alignas(64) std::uint8_t bin[kBinBlock];
+  alignas(64) std::uint16_t hist[4][M2DP_MAX_BINS];
+};
+
+/// Projects m points onto one plane, bins them by comparisons (bin_of's arithmetic: squared radius against squared
+/// ring edges, |v| against |u| tan(j 2 pi / t); no sqrt/atan2) and adds the counts to `counts` (l*t bins).
+/// Each loop is a plain element-wise loop over the block so that the compiler vectorises it; target_clones builds
+/// an AVX2 variant beside the SSE2 baseline and picks one at load time (no -march=native in a distributed binary).
+/// No FMA in either variant (avx2 does not imply fma), so u, v round like kernels/m2dp.cl with FP_CONTRACT OFF.
+__attribute__((target_clones("avx2", "default"))) void bin_and_count(const float* __restrict xs, const float* __restrict ys,
+                                                                      const float* __restrict zs, int m, const float* pl,
+                                                                      const float* params, int l, int t, BinScratch* s,
+                                                                      std::uint32_t* __restrict counts) {
+  const float e1x = pl[0], e1y = pl[1], e1z = pl[2], d1 = pl[3];
+  const float e2x = pl[4], e2y = pl[5], e2z = pl[6], d2 = pl[7];
+  float* __restrict u = s->u;
+  float* __restrict v = s->v;
+  float* __restrict r2 = s->r2;
+  float* __restrict ring = s->ring;
+  float* __restrict kk = s->k;
+  for (int i = 0; i < m; ++i) {
+    const float uu = e1x * xs[i] + e1y * ys[i] + e1z * zs[i] + d1;
+    const float vv = e2x * xs[i] + e2y * ys[i] + e2z * zs[i] + d2;
+    u[i] = uu;
+    v[i] = vv;
+    r2[i] = uu * uu + vv * vv;
+    ring[i] = 0.0f;
+    kk[i] = 0.0f;
+  }
+  for (int e = 0; e < l - 1; ++e) {
+    const float edge = params[e];
+    for (int i = 0; i < m; ++i) ring[i] += (r2[i] >= edge) ? 1.0f : 0.0f;
+  }
+  const float* tq = params + (l - 1);
+  for (int j = 0; j < t / 4 - 1; ++j) {
+    const float tj = tq[j];
+    for (int i = 0; i < m; ++i) kk[i] += (std::fabs(v[i]) >= std::fabs(u[i]) * tj) ? 1.0f : 0.0f;
+  }
+  const float tf = static_cast<float>(t), half = static_cast<float>(t / 2), last = static_cast<float>(t / 2 - 1);
+  std::uint8_t* __restrict bin = s->bin;
+  for (int i = 0; i < m; ++i) {
+    const bool lower = v[i] < 0.0f;
+    const bool mirrored = lower ? (u[i] > 0.0f) : (u[i] < 0.0f);
+    const float sector = (lower ? 0.0f : half) + (mirrored ? last - kk[i] : kk[i]);
+    bin[i] = static_cast<std::uint8_t>(static_cast<int>(ring[i] * tf + sector));
+  }
+  // Four interleaved 16-bit histograms (a block has <= 1024 points): consecutive points in one bin do not wait on
+  // each other's increment.
+  const int nb = l * t;
+  for (int h = 0; h < 4; ++h)
+    for (int b = 0; b < nb; ++b) s->hist[h][b] = 0;
+  int i = 0;
+  for (; i + 4 <= m; i += 4) {
+    ++s->hist[0][bin[i]];
+    ++s->hist[1][bin[i + 1]];
+    ++s->hist[2][bin[i + 2]];
+    ++s->hist[3][bin[i + 3]];
+  }
+  for (; i < m; ++i) ++s->hist[0][bin[i]];
+  for (int b = 0; b < nb; ++b) counts[b] += static_cast<std::uint32_t>(s->hist[0][b]) + s->hist[1][b] + s->hist[2][b] + s->hist[3][b];
+}
 
 FirstMoments first_moments(const std::vector<Eigen::Vector3f>& points) {
   FirstMoments m;
@@ -68,23 +141,38 @@ M2dpResult compute_m2dp_cpu(const std::vector<Eigen::Vector3f>& points, const M2
   result.max_radius = std::sqrt(f.max_r2);
 
   // Step 3: project onto the p*q planes and count points per (ring, sector) bin: signature matrix A.
-  const int l = config.num_rings_l, t = config.num_sectors_t, num_planes = config.num_planes(), num_bins = config.num_bins();
-  const std::vector<float> planes = plane_table(config, f.axes, f.centroid);
+  // Fused per block of points (pocl notes): the block's coordinates and per-plane temporaries stay in L1 while all
+  // planes are projected, binned by comparisons and counted; threads take blocks and add their private matrices.
+  const int num_planes = config.num_planes(), num_bins = config.num_bins();
+  const int n = static_cast<int>(points.size());
+  // Structure of arrays, centred in float at the (refined) centroid; the plane offsets absorb the rounding.
+  const Eigen::Vector3f c = f.centroid.cast<float>();
+  std::vector<float> xs(static_cast<std::size_t>(n)), ys(static_cast<std::size_t>(n)), zs(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    xs[i] = points[i].x() - c.x();
+    ys[i] = points[i].y() - c.y();
+    zs[i] = points[i].z() - c.z();
+  }
+  const std::vector<float> planes = plane_table(config, f.axes, f.centroid - c.cast<double>());
   const std::vector<float> params = bin_params(config, f.max_r2);
   std::vector<std::uint32_t> signature(static_cast<std::size_t>(num_planes) * num_bins, 0u);
-  const int n = static_cast<int>(points.size());
   const int threads = config.num_threads > 0 ? config.num_threads : omp_get_max_threads();
+  const int num_blocks = (n + kBinBlock - 1) / kBinBlock;
 
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
-  for (int j = 0; j < num_planes; ++j) {
-    const float* pl = planes.data() + static_cast<std::size_t>(j) * M2DP_PLANE_STRIDE;
-    std::uint32_t* hist = signature.data() + static_cast<std::size_t>(j) * num_bins;
-    for (int i = 0; i < n; ++i) {
-      const Eigen::Vector3f& p = points[i];
-      const float u = pl[0] * p.x() + pl[1] * p.y() + pl[2] * p.z() + pl[3];
-      const float v = pl[4] * p.x() + pl[5] * p.y() + pl[6] * p.z() + pl[7];
-      ++hist[bin_of(u, v, params.data(), l, t)];
+#pragma omp parallel num_threads(threads)
+  {
+    std::vector<std::uint32_t> local(signature.size(), 0u);
+    BinScratch scratch;
+#pragma omp for schedule(dynamic, 1)
+    for (int blk = 0; blk < num_blocks; ++blk) {
+      const int begin = blk * kBinBlock, m = std::min(kBinBlock, n - begin);
+      for (int j = 0; j < num_planes; ++j)
+        bin_and_count(xs.data() + begin, ys.data() + begin, zs.data() + begin, m, planes.data() + static_cast<std::size_t>(j) * M2DP_PLANE_STRIDE,
+                      params.data(), config.num_rings_l, config.num_sectors_t, &scratch,
+                      local.data() + static_cast<std::size_t>(j) * num_bins);
     }
+#pragma omp critical(m2dp_signature_sum)
+    for (std::size_t b = 0; b < signature.size(); ++b) signature[b] += local[b];
   }
 
   // Step 4: first left and right singular vectors of A.

@@ -57,20 +57,26 @@ Frame finish_frame(const FirstMoments& first, const Eigen::Matrix3d& pca, const 
 /// normal n = (cos phi cos theta, cos phi sin theta, sin phi) in the frame (He 2016; Vlaminck 2019 Sec. 4.1).
 std::vector<float> plane_table(const M2dpConfig& config, const Eigen::Matrix3d& axes, const Eigen::Vector3d& centroid);
 
-/// Bin parameters: squared ring edges (k^2 r)^2, k = 1..l-1 with l^2 r = max radius; then cos, sin of the sector
-/// boundaries alpha_k = k 2 pi / t, k = 1..t/2-1.
+/// Bin parameters: squared ring edges (k^2 r)^2, k = 1..l-1 with l^2 r = max radius (Vlaminck 2019 Sec. 4.1);
+/// then tan(j 2 pi / t), j = 1..t/4-1: the sector boundaries inside one quarter turn (t is a multiple of 4).
 std::vector<float> bin_params(const M2dpConfig& config, double max_r2);
 
-/// Bin of one projected point (ring * t + sector), by comparisons; the same arithmetic as kernels/m2dp.cl.
+/// Bin of one projected point (ring * t + sector), by comparisons only (no sqrt, no atan2); the same arithmetic
+/// as the vectorised CPU loops (m2dp_cpu.cpp) and kernels/m2dp.cl.
+/// Sector s = floor(angle(-u, -v) / (2 pi / t)), i.e. angles over (-pi, pi] counted from -pi: the half turn from
+/// the sign of v, the quarter from the sign of the folded u, and inside the quarter the count of boundaries
+/// tan(j 2 pi / t) <= |v| / |u|, mirrored in the second quarter.
 inline int bin_of(float u, float v, const float* params, int l, int t) {
   const float r2 = u * u + v * v;
   int ring = 0;
   for (int k = 0; k < l - 1; ++k) ring += (r2 >= params[k]) ? 1 : 0;
   const bool lower = v < 0.0f;
-  const float su = lower ? -u : u, sv = lower ? -v : v;
-  int sector = lower ? 0 : t / 2;
-  const float* cs = params + (l - 1);
-  for (int k = 0; k < t / 2 - 1; ++k) sector += (sv * cs[2 * k] - su * cs[2 * k + 1] >= 0.0f) ? 1 : 0;
+  const float a = u < 0.0f ? -u : u, b = lower ? -v : v;
+  const bool mirrored = lower ? (u > 0.0f) : (u < 0.0f);
+  int k = 0;
+  const float* tq = params + (l - 1);
+  for (int j = 0; j < t / 4 - 1; ++j) k += (b >= a * tq[j]) ? 1 : 0;
+  const int sector = (lower ? 0 : t / 2) + (mirrored ? t / 2 - 1 - k : k);
   return ring * t + sector;
 }
 
