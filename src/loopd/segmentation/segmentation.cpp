@@ -24,6 +24,7 @@ struct RangeImage {
   int rows = 0, cols = 0;
   std::vector<int> index;       // point index per pixel, -1 empty
   std::vector<float> range;     // [m] per pixel
+  std::vector<Eigen::Vector3f> xyz;  // point per pixel (copied: neighbour lookups stay local in memory)
   std::vector<Eigen::Vector3f> normal;  // unit normal per pixel, zero when unknown
   int at(int r, int c) const { return index[static_cast<std::size_t>(r * cols + c)]; }
 };
@@ -103,7 +104,7 @@ bool build_range_image(const PointCloud& scan, const LidarModel* model, const Se
     if (row[i] < 0) continue;
     const Eigen::Vector3f& p = scan.points[i];
     float r = 0;
-    if (!usable(p, &r)) continue;
+    if (!usable(p, &r)) continue;  // rows of unusable points stay -1 except with scan rings
     int c = static_cast<int>((fast_atan2(p.y(), p.x()) + static_cast<float>(kPi)) * col_scale);
     c = std::min(std::max(c, 0), cols - 1);
     const std::size_t k = static_cast<std::size_t>(row[i] * cols + c);
@@ -112,6 +113,9 @@ bool build_range_image(const PointCloud& scan, const LidarModel* model, const Se
       img->range[k] = r;
     }
   }
+  img->xyz.assign(img->index.size(), Eigen::Vector3f::Zero());
+  for (std::size_t k = 0; k < img->index.size(); ++k)
+    if (img->index[k] >= 0) img->xyz[k] = scan.points[static_cast<std::size_t>(img->index[k])];
   return true;
 }
 
@@ -127,10 +131,10 @@ inline int neighbor_pixel(const RangeImage& img, int r, int c, int dr, int dc, i
   return -1;
 }
 
-void compute_normals(const PointCloud& scan, const SegmentationConfig& cfg, RangeImage* img) {
+void compute_normals(const SegmentationConfig& cfg, RangeImage* img) {
   const int rows = img->rows, cols = img->cols;
   std::vector<Eigen::Vector3f> raw(img->index.size(), Eigen::Vector3f::Zero());
-  auto pt = [&](int k) -> const Eigen::Vector3f& { return scan.points[static_cast<std::size_t>(img->index[static_cast<std::size_t>(k)])]; };
+  auto pt = [&](int k) -> const Eigen::Vector3f& { return img->xyz[static_cast<std::size_t>(k)]; };
   for (int r = 0; r < rows; ++r) {
     for (int c = 0; c < cols; ++c) {
       const int k = r * cols + c;
@@ -332,7 +336,7 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
     out.ms = sw.ms();
     return out;
   }
-  compute_normals(scan, config, &img);
+  compute_normals(config, &img);
 
   // Region growing over 4-neighbours (holes of one pixel are bridged) with the two comparators of Sec. 4.2.1.
   const int cols = img.cols;
@@ -353,7 +357,7 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
       stack.pop_back();
       mem.push_back(k);
       const int r = k / cols, c = k % cols;
-      const Eigen::Vector3f& p = scan.points[static_cast<std::size_t>(img.index[static_cast<std::size_t>(k)])];
+      const Eigen::Vector3f& p = img.xyz[static_cast<std::size_t>(k)];
       const Eigen::Vector3f& n = img.normal[static_cast<std::size_t>(k)];
       const float thr = neighbor_threshold(config, img.range[static_cast<std::size_t>(k)]);
       for (int d = 0; d < 4; ++d) {
@@ -361,7 +365,7 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
         if (kk < 0 || label[static_cast<std::size_t>(kk)] >= 0) continue;
         const Eigen::Vector3f& nn = img.normal[static_cast<std::size_t>(kk)];
         if (nn.isZero() || nn.dot(n) < cos_normal) continue;                                                  // comparator 2
-        if ((scan.points[static_cast<std::size_t>(img.index[static_cast<std::size_t>(kk)])] - p).norm() > thr) continue;  // comparator 1
+        if ((img.xyz[static_cast<std::size_t>(kk)] - p).squaredNorm() > thr * thr) continue;  // comparator 1
         label[static_cast<std::size_t>(kk)] = id;
         stack.push_back(kk);
       }
@@ -384,7 +388,7 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
     pts.clear();
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (int k : mem) {
-      pts.push_back(scan.points[static_cast<std::size_t>(img.index[static_cast<std::size_t>(k)])]);
+      pts.push_back(img.xyz[static_cast<std::size_t>(k)]);
       sum += pts.back().cast<double>();
     }
     Cluster cl;
