@@ -84,6 +84,7 @@ int run_bench_gicp(int argc, char** argv) {
   app.add_option("--threads", threads, "threads for loopd GICP")->capture_default_str();
   app.add_option("--voxel", prep.voxel_size, "voxel size [m]")->capture_default_str();
   app.add_option("--k", gicp.k_neighbors, "covariance neighbours (both)")->capture_default_str();
+  app.add_option("--max-source", gicp.max_source_points, "loopd: source points used in the optimisation (0 = all)")->capture_default_str();
   app.add_option("--pcl-distance", pcl_distance, "PCL max correspondence distance [m] (it has no schedule)")->capture_default_str();
   app.add_option("--kitti", kitti_dir, "KITTI folder (poses/, calib/, seq00/); skipped when absent")->capture_default_str();
   app.add_flag("--no-pcl", no_pcl, "skip the PCL peer");

@@ -36,12 +36,14 @@ void finite_points(const std::vector<Eigen::Vector3f>& in, const std::vector<Eig
 }
 
 /// Ren 2019, Eq. (2): normal = eigenvector of the smallest eigenvalue of the k-neighbour covariance.
-std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3f>& points, const KdTree3f& tree, int k, int num_threads) {
-  std::vector<Eigen::Vector3f> normals(points.size(), Eigen::Vector3f::Zero());
-  const int n = static_cast<int>(points.size());
+/// Normals at `queries` from neighbours among `points` (indexed by `tree`).
+std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3f>& queries, const std::vector<Eigen::Vector3f>& points, const KdTree3f& tree, int k,
+                                              int num_threads) {
+  std::vector<Eigen::Vector3f> normals(queries.size(), Eigen::Vector3f::Zero());
+  const int n = static_cast<int>(queries.size());
 #pragma omp parallel for num_threads(num_threads) schedule(dynamic, 128)
   for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3f& p = points[static_cast<std::size_t>(i)];
+    const Eigen::Vector3f& p = queries[static_cast<std::size_t>(i)];
     if (!p.allFinite()) continue;
     int idx[kMaxNeighbors];
     float d2[kMaxNeighbors];
@@ -162,6 +164,7 @@ std::optional<std::string> GicpConfig::validate() const {
   if (!(damping >= 0.0)) return "GicpConfig.damping must be >= 0";
   if (!(min_fitness >= 0.0 && min_fitness <= 1.0)) return "GicpConfig.min_fitness must be in [0, 1]";
   if (num_threads < 1) return "GicpConfig.num_threads must be >= 1";
+  if (max_source_points != 0 && max_source_points < kMinPoints) return "GicpConfig.max_source_points must be 0 or >= 10";
   return std::nullopt;
 }
 
@@ -189,7 +192,7 @@ std::vector<Eigen::Vector3f> estimate_gicp_normals(const std::vector<Eigen::Vect
   std::vector<Eigen::Vector3f> out(points.size(), Eigen::Vector3f::Zero());
   if (finite.empty()) return out;
   const KdTree3f tree(finite);
-  const std::vector<Eigen::Vector3f> fn = estimate_normals(finite, tree, k_neighbors, std::max(1, num_threads));
+  const std::vector<Eigen::Vector3f> fn = estimate_normals(finite, finite, tree, k_neighbors, std::max(1, num_threads));
   std::size_t k = 0;
   for (std::size_t i = 0; i < points.size(); ++i)
     if (points[i].allFinite()) out[i] = fn[k++];
@@ -232,12 +235,25 @@ GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source_in, const std::
   }
 
   const KdTree3f target_tree(target);
-  if (source_normals.empty()) {
-    const KdTree3f source_tree(source);
-    source_normals = estimate_normals(source, source_tree, config.k_neighbors, config.num_threads);
+  // Optional deterministic stride subsample of the source: fewer correspondences per iteration; the normals of the
+  // kept points still come from their neighbours in the full source.
+  std::vector<Eigen::Vector3f> source_used = source, source_used_normals = source_normals;
+  if (config.max_source_points > 0 && source.size() > static_cast<std::size_t>(config.max_source_points)) {
+    const double stride = static_cast<double>(source.size()) / config.max_source_points;
+    source_used.clear();
+    source_used_normals.clear();
+    for (int k = 0; k < config.max_source_points; ++k) {
+      const auto i = static_cast<std::size_t>(k * stride);
+      source_used.push_back(source[i]);
+      if (!source_normals.empty()) source_used_normals.push_back(source_normals[i]);
+    }
   }
-  if (target_normals.empty()) target_normals = estimate_normals(target, target_tree, config.k_neighbors, config.num_threads);
-  const std::vector<Eigen::Matrix3d> source_covs = covariances_from_normals(source_normals, config.epsilon);
+  if (source_used_normals.empty()) {
+    const KdTree3f source_tree(source);
+    source_used_normals = estimate_normals(source_used, source, source_tree, config.k_neighbors, config.num_threads);
+  }
+  if (target_normals.empty()) target_normals = estimate_normals(target, target, target_tree, config.k_neighbors, config.num_threads);
+  const std::vector<Eigen::Matrix3d> source_covs = covariances_from_normals(source_used_normals, config.epsilon);
   const std::vector<Eigen::Matrix3d> target_covs = covariances_from_normals(target_normals, config.epsilon);
   result.ms_covariances = sw.ms();
 
@@ -251,7 +267,7 @@ GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source_in, const std::
     const double loosen = final_stage ? 1.0 : 10.0;
     last_stage_converged = false;
     for (int it = 0; it < config.max_iterations; ++it) {
-      const Linearization L = linearize(source, source_covs, target, target_covs, target_tree, T, max_distance, config.num_threads);
+      const Linearization L = linearize(source_used, source_covs, target, target_covs, target_tree, T, max_distance, config.num_threads);
       ++result.iterations;
       if (L.inliers < 6) break;  // nothing to pull on at this distance; the next stage (or the final check) decides
       Matrix6d A = L.H;
@@ -274,12 +290,12 @@ GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source_in, const std::
 
   // Final evaluation at the final transform: residual, fitness and the Hessian used as loop-edge information.
   const double final_distance = config.max_correspondence_distances.back();
-  const Linearization F = linearize(source, source_covs, target, target_covs, target_tree, T, final_distance, config.num_threads);
+  const Linearization F = linearize(source_used, source_covs, target, target_covs, target_tree, T, final_distance, config.num_threads);
   result.T_target_source = T;
   result.H = F.H;
   result.cost = F.cost;
   result.num_inliers = F.inliers;
-  result.fitness = static_cast<double>(F.inliers) / static_cast<double>(source.size());
+  result.fitness = static_cast<double>(F.inliers) / static_cast<double>(source_used.size());
   result.residual = F.inliers > 0 ? F.sum_distance / F.inliers : -1.0;
   result.degeneracy = F.inliers > 0 ? gicp_degeneracy(F.H, &result.weakest_direction) : -1.0;
 
