@@ -122,9 +122,11 @@ __kernel void m2dp_extent(__global const float* xs, __global const float* ys, __
 // Each work-item runs element-wise loops over sub-blocks of its chunk (vectorised by the kernel
 // compiler as plain loops) and counts into private 16-bit histograms.
 // bin_params = {(k^2 r)^2 for k = 1..l-1, then tan(j 2 pi / t) for j = 1..t/4-1}.
+// n counts the binned points, the stride-th of all (max_points subsampling of the binning only).
 // partial[(chunk * planes + plane) * l*t + ring * t + sector] = count.
 __kernel void m2dp_bin(__global const float* xs, __global const float* ys, __global const float* zs, const int n,
-                       __global const float* planes, __constant float* bin_params, __global uint* partial) {
+                       __global const float* planes, __constant float* bin_params, __global uint* partial,
+                       const int stride) {
   const int chunk = (int)get_global_id(0);
   const int plane = (int)get_global_id(1);
   const int begin = chunk * M2DP_CHUNK;
@@ -146,7 +148,8 @@ __kernel void m2dp_bin(__global const float* xs, __global const float* ys, __glo
     const int m = min(M2DP_SUBBLOCK, end - base);
     // Compute loop: independent per point, comparisons only (vectorisable).
     for (int i = 0; i < m; ++i) {
-      const float x = xs[base + i], y = ys[base + i], z = zs[base + i];
+      const int g = (base + i) * stride;
+      const float x = xs[g], y = ys[g], z = zs[g];
       const float u = e1x * x + e1y * y + e1z * z + d1;
       const float v = e2x * x + e2y * y + e2z * z + d2;
       const float r2 = u * u + v * v;

@@ -20,6 +20,7 @@ namespace {
 
 M2dpConfig config_for(Backend backend, M2dpFrame frame = M2dpFrame::kGravityAligned) {
   M2dpConfig c;
+  c.max_points = 0;  // bin all points: the backends must agree on full 120k-point clouds
   c.backend = backend;
   c.frame = frame;
   c.log_fallback = false;  // a missing device is a test failure, not a silent CPU run

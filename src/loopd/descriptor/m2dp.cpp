@@ -203,6 +203,11 @@ void descriptor_from_signature(const std::vector<std::uint32_t>& signature, cons
   }
 }
 
+int binning_stride(std::size_t num_points, int max_points) {
+  if (max_points <= 0 || num_points <= static_cast<std::size_t>(max_points)) return 1;
+  return static_cast<int>((num_points + static_cast<std::size_t>(max_points) - 1) / static_cast<std::size_t>(max_points));
+}
+
 const std::vector<Eigen::Vector3f>& subsample(const std::vector<Eigen::Vector3f>& points, int max_points,
                                               std::vector<Eigen::Vector3f>* storage) {
   if (max_points <= 0 || points.size() <= static_cast<std::size_t>(max_points)) return points;
@@ -241,10 +246,10 @@ std::string M2dp::device_name() const { return opencl_ ? opencl_->device_name() 
 M2dpResult M2dp::compute(const PointCloud& cloud) const { return compute(cloud.points); }
 
 M2dpResult M2dp::compute(const std::vector<Eigen::Vector3f>& points) const {
-  std::vector<Eigen::Vector3f> storage;
-  const std::vector<Eigen::Vector3f>& used = detail::subsample(points, config_.max_points, &storage);
-  if (opencl_) return opencl_->compute(used);
-  return detail::compute_m2dp_cpu(used, config_);
+  // max_points thins only the O(N x planes) binning (detail::binning_stride); the frame and the outer ring radius
+  // come from all points, since the farthest point and the axes are what a subsample perturbs most.
+  if (opencl_) return opencl_->compute(points);
+  return detail::compute_m2dp_cpu(points, config_);
 }
 
 float descriptor_distance(const Eigen::VectorXf& a, const Eigen::VectorXf& b) {

@@ -40,11 +40,15 @@ struct M2dpConfig {
   Backend backend = Backend::kAuto;
   int opencl_device = -1;      ///< index into all OpenCL devices of all platforms; -1: first GPU, else first device
   int num_threads = 0;         ///< CPU backend threads (OpenMP); 0: OpenMP default
-  /// Deterministic stride subsampling before the descriptor is computed: when the cloud has more than this many
-  /// points, every ceil(N / max_points)-th point is used. 0 = use all points (paper). The singular vectors of
-  /// the count matrix do not change when all counts are scaled, so a uniform subsample approximates the full
-  /// descriptor (measured error in the M2DP report).
-  int max_points = 0;
+  /// Deterministic stride subsampling of the binning: when the cloud has more than this many points, every
+  /// ceil(N / max_points)-th point is projected and counted; the frame (centroid, axes, axis signs) and the outer ring
+  /// radius still come from all points (cheap O(N) passes; the farthest point and the axes are what a subsample
+  /// perturbs most). 0 = bin all points (paper). The singular vectors do not change when all counts are scaled, so
+  /// a uniform subsample approximates the full descriptor (measured in test_m2dp_subsample.cpp).
+  /// Default 30,000: on the 11 KITTI seq00 scans (~122k points) the descriptor moves by at most 0.0035 (median
+  /// 0.0028), on simulated HDL-64E scans by at most 0.0036, against ~0.05 between revisits and ~0.21 to the nearest
+  /// other place; binning 30k instead of 122k points is ~4x less work.
+  int max_points = 30000;
   bool log_fallback = true;    ///< print one stderr line when kAuto/kOpenCl falls back to the CPU
 
   int num_planes() const { return num_azimuths_p * num_elevations_q; }

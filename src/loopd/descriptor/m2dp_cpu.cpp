@@ -144,14 +144,18 @@ M2dpResult compute_m2dp_cpu(const std::vector<Eigen::Vector3f>& points, const M2
   // Fused per block of points (pocl notes): the block's coordinates and per-plane temporaries stay in L1 while all
   // planes are projected, binned by comparisons and counted; threads take blocks and add their private matrices.
   const int num_planes = config.num_planes(), num_bins = config.num_bins();
-  const int n = static_cast<int>(points.size());
+  // max_points: only every stride-th point is binned (frame and radius above used all points).
+  const std::size_t stride = static_cast<std::size_t>(binning_stride(points.size(), config.max_points));
+  const int n = static_cast<int>((points.size() + stride - 1) / stride);
+  result.num_points = n;
   // Structure of arrays, centred in float at the (refined) centroid; the plane offsets absorb the rounding.
   const Eigen::Vector3f c = f.centroid.cast<float>();
   std::vector<float> xs(static_cast<std::size_t>(n)), ys(static_cast<std::size_t>(n)), zs(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
-    xs[i] = points[i].x() - c.x();
-    ys[i] = points[i].y() - c.y();
-    zs[i] = points[i].z() - c.z();
+    const Eigen::Vector3f& p = points[static_cast<std::size_t>(i) * stride];
+    xs[i] = p.x() - c.x();
+    ys[i] = p.y() - c.y();
+    zs[i] = p.z() - c.z();
   }
   const std::vector<float> planes = plane_table(config, f.axes, f.centroid - c.cast<double>());
   const std::vector<float> params = bin_params(config, f.max_r2);

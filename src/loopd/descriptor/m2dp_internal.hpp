@@ -85,6 +85,9 @@ inline int bin_of(float u, float v, const float* params, int l, int t) {
 /// Fills result->descriptor (u then v) and ok; error when A is all zero.
 void descriptor_from_signature(const std::vector<std::uint32_t>& signature, const M2dpConfig& config, M2dpResult* result);
 
+/// Stride of the points that are binned: every ceil(N / max_points)-th point when N > max_points > 0, else 1.
+int binning_stride(std::size_t num_points, int max_points);
+
 /// Points after the max_points stride rule (a copy only when subsampling).
 const std::vector<Eigen::Vector3f>& subsample(const std::vector<Eigen::Vector3f>& points, int max_points,
                                               std::vector<Eigen::Vector3f>* storage);

@@ -271,15 +271,21 @@ M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
   set_arg(s.k_bin, 0, s.xs.mem);
   set_arg(s.k_bin, 1, s.ys.mem);
   set_arg(s.k_bin, 2, s.zs.mem);
-  set_arg(s.k_bin, 3, n);
+  // max_points: only every stride-th point is binned (the moment and extent passes above used all points).
+  const int stride = binning_stride(points.size(), config_.max_points);
+  const int n_bin = (n + stride - 1) / stride;
+  const int bin_chunks = (n_bin + M2DP_CHUNK - 1) / M2DP_CHUNK;
+  result.num_points = n_bin;
+  set_arg(s.k_bin, 3, n_bin);
   set_arg(s.k_bin, 4, s.planes.mem);
   set_arg(s.k_bin, 5, s.params.mem);
   set_arg(s.k_bin, 6, s.partial.mem);
-  const std::size_t bin_global[2] = {chunks, num_planes};
+  set_arg(s.k_bin, 7, stride);
+  const std::size_t bin_global[2] = {static_cast<std::size_t>(bin_chunks), num_planes};
   const std::size_t bin_local[2] = {1, 1};
   if ((err = clEnqueueNDRangeKernel(s.queue, s.k_bin, 2, nullptr, bin_global, bin_local, 0, nullptr, nullptr)) != CL_SUCCESS)
     return fail("m2dp_bin", err);
-  const int chunks_arg = num_chunks;
+  const int chunks_arg = bin_chunks;
   set_arg(s.k_reduce, 0, s.partial.mem);
   set_arg(s.k_reduce, 1, chunks_arg);
   set_arg(s.k_reduce, 2, s.signature.mem);
