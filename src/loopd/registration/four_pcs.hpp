@@ -43,16 +43,20 @@ struct FourPcsResult {
   bool success = false;
   std::string reason;  ///< why there is no alignment (empty on success)
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();  ///< maps source points into the target frame
-  double lcp_fraction = 0;  ///< fraction of (scored) source points within delta of a target point
+  double lcp_fraction = 0;  ///< fraction of the scored source points (ground excluded) within delta of a target point
   int bases_tried = 0;
-  int congruent_sets = 0;  ///< congruent sets whose transform was scored
+  int congruent_sets = 0;  ///< congruent sets kept and prescored (after the per-base cap and pose de-duplication)
   double ms = 0;           ///< [ms]
   int lcp_points = 0;      ///< source points the LCP fraction is computed on
 };
 
 /// @brief Global registration without initial guess (Vlaminck 2019, Sec. 4.2).
-/// Bases are taken on planar clusters of the source, congruent sets among planar-cluster points of the target,
-/// each candidate scored by the largest common point set (LCP) on the full downsampled clouds.
+/// Bases are 4 hull points of one planar source cluster (non-horizontal planes first: a range-limited ground plane
+/// matches at any yaw); congruent sets come from pairs of points lying on one target plane (hull points and
+/// downsampled members); each candidate is scored by the largest common point set (LCP, delta) of a deterministic
+/// subsample of the source without its ground plane (lcp_exclude_ground), then the leaders are refined by closest
+/// points (ground included) and the highest LCP wins. success is true whenever a transform was found: accepting it
+/// is the caller's decision on lcp_fraction (measured: revisits >= 0.7, different places <= 0.5, see tests).
 /// @param source_points voxel-downsampled source cloud used for LCP scoring
 /// @param target_points voxel-downsampled target cloud used for LCP scoring
 /// @note Deterministic: no random sampling; the same result for any num_threads.
