@@ -112,67 +112,69 @@ __kernel void m2dp_extent(__global const float* xs, __global const float* ys, __
   e[15] = 0.0f;
 }
 
-// Pass 3: projection and binning of all p*q planes in one launch; global size (chunks, planes).
+// Pass 3a: bin code of every (plane, binned point); one work-item per point, wide work-groups.
 // Vlaminck 2019 Sec. 4.1: a point projects onto plane X_j at (u, v) = (e1.p, e2.p) relative to the
 // projected centroid; rings have outer radii k^2 r (k = 1..l, l^2 r = farthest point) and each ring
 // has t sectors over (-pi, pi]. Ring: count of squared edges (k^2 r)^2 <= u^2 + v^2. Sector: the half
 // turn from the sign of v, the quarter from the sign of the folded u, and inside the quarter the count
 // of boundaries with |v| >= |u| tan(j 2 pi / t), mirrored in the second quarter (the same arithmetic
-// as bin_of() and the CPU loops in src/loopd/descriptor: no sqrt, no atan2, no atomics).
-// Each work-item runs element-wise loops over sub-blocks of its chunk (vectorised by the kernel
-// compiler as plain loops) and counts into private 16-bit histograms.
+// as bin_of() and the CPU loops in src/loopd/descriptor: no sqrt, no atan2, no atomics, no branches).
+// Shaped for PoCL's work-group vectoriser: work-items are independent points, the plane loop has the
+// same trip count in every work-item (PoCL makes the work-item loop the inner, vectorised loop), and
+// the stores codes[plane * n_pad + i] are contiguous across work-items. On a GPU the same shape is one
+// thread per point with coalesced loads and stores.
+// The i-th binned point is xs[i * stride] (max_points subsampling of the binning only); work-items
+// past n repeat the last point into the padding, which pass 3b ignores.
 // bin_params = {(k^2 r)^2 for k = 1..l-1, then tan(j 2 pi / t) for j = 1..t/4-1}.
-// n counts the binned points, the stride-th of all (max_points subsampling of the binning only).
+__kernel __attribute__((reqd_work_group_size(M2DP_WG, 1, 1)))
+void m2dp_codes(__global const float* xs, __global const float* ys, __global const float* zs, const int n, const int stride,
+                __constant float* planes, __constant float* bin_params, __global uchar* codes, const int n_pad) {
+  const int i = (int)get_global_id(0);
+  const int g = min(i, n - 1) * stride;
+  const float x = xs[g], y = ys[g], z = zs[g];
+  for (int plane = 0; plane < M2DP_NPLANES; ++plane) {
+    __constant float* pl = planes + plane * M2DP_PLANE_STRIDE;
+    const float u = pl[0] * x + pl[1] * y + pl[2] * z + pl[3];
+    const float v = pl[4] * x + pl[5] * y + pl[6] * z + pl[7];
+    const float r2 = u * u + v * v;
+    float ring = 0.0f;
+#pragma unroll
+    for (int k = 0; k < M2DP_L - 1; ++k) ring += (r2 >= bin_params[k]) ? 1.0f : 0.0f;
+    const float au = fabs(u), av = fabs(v);
+    float kq = 0.0f;
+#pragma unroll
+    for (int j = 0; j < M2DP_T / 4 - 1; ++j) kq += (av >= au * bin_params[M2DP_L - 1 + j]) ? 1.0f : 0.0f;
+    const int lower = v < 0.0f;
+    const int mirrored = lower ? (u > 0.0f) : (u < 0.0f);
+    const float sector = (lower ? 0.0f : (float)M2DP_HALF_T) + (mirrored ? (float)(M2DP_HALF_T - 1) - kq : kq);
+    codes[plane * n_pad + i] = (uchar)(int)(ring * (float)M2DP_T + sector);
+  }
+}
+
+// Pass 3b: counts the codes of one chunk of points for one plane in private 16-bit histograms (four
+// interleaved, so that increments of one bin do not wait on each other); global size (chunks, planes).
 // partial[(chunk * planes + plane) * l*t + ring * t + sector] = count.
-__kernel void m2dp_bin(__global const float* xs, __global const float* ys, __global const float* zs, const int n,
-                       __global const float* planes, __constant float* bin_params, __global uint* partial,
-                       const int stride) {
+__kernel void m2dp_count(__global const uchar* codes, const int n, const int n_pad, __global uint* partial) {
   const int chunk = (int)get_global_id(0);
   const int plane = (int)get_global_id(1);
   const int begin = chunk * M2DP_CHUNK;
   const int end = min(n, begin + M2DP_CHUNK);
-  __global const float* pl = planes + plane * M2DP_PLANE_STRIDE;
-  const float e1x = pl[0], e1y = pl[1], e1z = pl[2], d1 = pl[3];
-  const float e2x = pl[4], e2y = pl[5], e2z = pl[6], d2 = pl[7];
-  float edge2[M2DP_L];
-  for (int k = 0; k < M2DP_L - 1; ++k) edge2[k] = bin_params[k];
-  float tq[M2DP_T / 4 + 1];
-  for (int j = 0; j < M2DP_T / 4 - 1; ++j) tq[j] = bin_params[M2DP_L - 1 + j];
-
+  __global const uchar* c = codes + plane * n_pad;
   uint total[M2DP_LT];
   for (int b = 0; b < M2DP_LT; ++b) total[b] = 0u;
   ushort hist[4][M2DP_LT];
-  uchar bins[M2DP_SUBBLOCK];
-
   for (int base = begin; base < end; base += M2DP_SUBBLOCK) {
     const int m = min(M2DP_SUBBLOCK, end - base);
-    // Compute loop: independent per point, comparisons only (vectorisable).
-    for (int i = 0; i < m; ++i) {
-      const int g = (base + i) * stride;
-      const float x = xs[g], y = ys[g], z = zs[g];
-      const float u = e1x * x + e1y * y + e1z * z + d1;
-      const float v = e2x * x + e2y * y + e2z * z + d2;
-      const float r2 = u * u + v * v;
-      float ring = 0.0f;
-      for (int k = 0; k < M2DP_L - 1; ++k) ring += (r2 >= edge2[k]) ? 1.0f : 0.0f;
-      const float au = fabs(u), av = fabs(v);
-      float kq = 0.0f;
-      for (int j = 0; j < M2DP_T / 4 - 1; ++j) kq += (av >= au * tq[j]) ? 1.0f : 0.0f;
-      const int lower = v < 0.0f;
-      const int mirrored = lower ? (u > 0.0f) : (u < 0.0f);
-      const float sector = (lower ? 0.0f : (float)M2DP_HALF_T) + (mirrored ? (float)(M2DP_HALF_T - 1) - kq : kq);
-      bins[i] = (uchar)(int)(ring * (float)M2DP_T + sector);
-    }
-    // Counting loop: four interleaved histograms so that increments of one bin do not wait on each other.
     for (int b = 0; b < M2DP_LT; ++b) hist[0][b] = hist[1][b] = hist[2][b] = hist[3][b] = (ushort)0;
-    int i = 0;
-    for (; i + 4 <= m; i += 4) {
-      hist[0][bins[i]]++;
-      hist[1][bins[i + 1]]++;
-      hist[2][bins[i + 2]]++;
-      hist[3][bins[i + 3]]++;
+    int i = base;
+    for (; i + 4 <= base + m; i += 4) {
+      const uchar4 q = vload4(0, c + i);
+      hist[0][q.s0]++;
+      hist[1][q.s1]++;
+      hist[2][q.s2]++;
+      hist[3][q.s3]++;
     }
-    for (; i < m; ++i) hist[0][bins[i]]++;
+    for (; i < base + m; ++i) hist[0][c[i]]++;
     for (int b = 0; b < M2DP_LT; ++b) total[b] += (uint)hist[0][b] + hist[1][b] + hist[2][b] + hist[3][b];
   }
   __global uint* out = partial + (chunk * M2DP_NPLANES + plane) * M2DP_LT;

@@ -10,9 +10,12 @@
  * both cores many independent work-items (120k points -> 15 chunks x 64 planes = 960). */
 #define M2DP_CHUNK 8192
 
-/* Points binned at once inside a binning work-item: the bin bytes of one sub-block stay in L1
- * between the vectorised compute loop and the counting loop (pocl notes: fused passes in cache). */
-#define M2DP_SUBBLOCK 512
+/* Work-group size of the per-point code kernel (m2dp_codes): wide, so that PoCL vectorises across
+ * work-items; a multiple of every SIMD width and of a GPU warp/wavefront. */
+#define M2DP_WG 256
+
+/* Points counted at once inside a counting work-item (m2dp_count): its 16-bit histograms cannot overflow. */
+#define M2DP_SUBBLOCK 4096
 
 /* Floats per projection plane in the plane table: e1 (3), -c.e1, e2 (3), -c.e2, where e1, e2 are
  * the in-plane axes expressed in the input (sensor) frame and c the centroid, so a point p

@@ -27,15 +27,36 @@ struct BinScratch {
   alignas(64) std::uint16_t hist[4][M2DP_MAX_BINS];
 };
 
-/// Projects m points onto one plane, bins them by comparisons (bin_of's arithmetic: squared radius against squared
-/// ring edges, |v| against |u| tan(j 2 pi / t); no sqrt/atan2) and adds the counts to `counts` (l*t bins).
-/// Each loop is a plain element-wise loop over the block so that the compiler vectorises it; target_clones builds
-/// an AVX2 variant beside the SSE2 baseline and picks one at load time (no -march=native in a distributed binary).
-/// No FMA in either variant (avx2 does not imply fma), so u, v round like kernels/m2dp.cl with FP_CONTRACT OFF.
-__attribute__((target_clones("avx2", "default"))) void bin_and_count(const float* __restrict xs, const float* __restrict ys,
-                                                                      const float* __restrict zs, int m, const float* pl,
-                                                                      const float* params, int l, int t, BinScratch* s,
-                                                                      std::uint32_t* __restrict counts) {
+/// Bin codes of m points on one plane for compile-time l = L and t = 4 (Q + 1): one element-wise loop with the ring
+/// and sector comparisons unrolled, kept in registers (the general loops below go through the scratch arrays).
+template <int L, int Q>
+inline __attribute__((always_inline)) void codes_fixed(const float* __restrict xs, const float* __restrict ys, const float* __restrict zs, int m,
+                                                       const float* pl, const float* params, std::uint8_t* __restrict bin) {
+  const float e1x = pl[0], e1y = pl[1], e1z = pl[2], d1 = pl[3];
+  const float e2x = pl[4], e2y = pl[5], e2z = pl[6], d2 = pl[7];
+  float edge[L], tq[Q + 1];
+  for (int k = 0; k < L - 1; ++k) edge[k] = params[k];
+  for (int j = 0; j < Q; ++j) tq[j] = params[L - 1 + j];
+  constexpr float kT = 4.0f * (Q + 1), kHalf = 2.0f * (Q + 1), kLast = 2.0f * (Q + 1) - 1.0f;
+  for (int i = 0; i < m; ++i) {
+    const float u = e1x * xs[i] + e1y * ys[i] + e1z * zs[i] + d1;
+    const float v = e2x * xs[i] + e2y * ys[i] + e2z * zs[i] + d2;
+    const float r2 = u * u + v * v;
+    float ring = 0.0f;
+    for (int k = 0; k < L - 1; ++k) ring += (r2 >= edge[k]) ? 1.0f : 0.0f;
+    const float au = std::fabs(u), av = std::fabs(v);
+    float kq = 0.0f;
+    for (int j = 0; j < Q; ++j) kq += (av >= au * tq[j]) ? 1.0f : 0.0f;
+    const bool lower = v < 0.0f;
+    const bool mirrored = lower ? (u > 0.0f) : (u < 0.0f);
+    const float sector = (lower ? 0.0f : kHalf) + (mirrored ? kLast - kq : kq);
+    bin[i] = static_cast<std::uint8_t>(static_cast<int>(ring * kT + sector));
+  }
+}
+
+/// Bin codes for any l, t (t a multiple of 4): loops interchanged so that each is a plain vectorisable loop.
+inline __attribute__((always_inline)) void general_codes(const float* __restrict xs, const float* __restrict ys, const float* __restrict zs, int m,
+                                                         const float* pl, const float* params, int l, int t, BinScratch* s) {
   const float e1x = pl[0], e1y = pl[1], e1z = pl[2], d1 = pl[3];
   const float e2x = pl[4], e2y = pl[5], e2z = pl[6], d2 = pl[7];
   float* __restrict u = s->u;
@@ -69,9 +90,13 @@ __attribute__((target_clones("avx2", "default"))) void bin_and_count(const float
     const float sector = (lower ? 0.0f : half) + (mirrored ? last - kk[i] : kk[i]);
     bin[i] = static_cast<std::uint8_t>(static_cast<int>(ring[i] * tf + sector));
   }
+}
+
+/// Adds the counts of m bin codes to `counts` (nb bins).
+inline __attribute__((always_inline)) void count_codes(const std::uint8_t* __restrict bin, int m, int nb, BinScratch* s,
+                                                       std::uint32_t* __restrict counts) {
   // Four interleaved 16-bit histograms (a block has <= 1024 points): consecutive points in one bin do not wait on
   // each other's increment.
-  const int nb = l * t;
   for (int h = 0; h < 4; ++h)
     for (int b = 0; b < nb; ++b) s->hist[h][b] = 0;
   int i = 0;
@@ -83,6 +108,24 @@ __attribute__((target_clones("avx2", "default"))) void bin_and_count(const float
   }
   for (; i < m; ++i) ++s->hist[0][bin[i]];
   for (int b = 0; b < nb; ++b) counts[b] += static_cast<std::uint32_t>(s->hist[0][b]) + s->hist[1][b] + s->hist[2][b] + s->hist[3][b];
+}
+
+/// Projects m points onto one plane, bins them by comparisons (bin_of's arithmetic: squared radius against squared
+/// ring edges, |v| against |u| tan(j 2 pi / t); no sqrt/atan2) and adds the counts to `counts` (l*t bins).
+/// Each loop is a plain element-wise loop over the block so that the compiler vectorises it; target_clones builds
+/// an AVX2 variant beside the SSE2 baseline and picks one at load time (no -march=native in a distributed binary).
+/// No FMA in either variant (avx2 does not imply fma), so u, v round like kernels/m2dp.cl with FP_CONTRACT OFF.
+__attribute__((target_clones("avx2", "default"))) void bin_and_count(const float* __restrict xs, const float* __restrict ys,
+                                                                      const float* __restrict zs, int m, const float* pl,
+                                                                      const float* params, int l, int t, BinScratch* s,
+                                                                      std::uint32_t* __restrict counts) {
+  std::uint8_t* __restrict bin = s->bin;
+  if (l == 8 && t == 16) {
+    codes_fixed<8, 3>(xs, ys, zs, m, pl, params, bin);  // the paper's l = 8, t = 16
+  } else {
+    general_codes(xs, ys, zs, m, pl, params, l, t, s);
+  }
+  count_codes(bin, m, l * t, s, counts);
 }
 
 FirstMoments first_moments(const std::vector<Eigen::Vector3f>& points) {

@@ -1,7 +1,8 @@
 // M2DP OpenCL backend, host side (kernels in kernels/m2dp.cl). One program built at construction,
 // buffers kept and grown across scans, one in-order queue guarded by a mutex (thread-safe compute()).
 // Per scan: upload, moments kernel -> 3x3 frame on the host, extent kernel -> ring radius and axis
-// signs, binning kernel over all planes and chunks, reduce kernel, one read of the 64 x 128 matrix.
+// signs, code kernel (one work-item per point, all planes), count kernel (per chunk and plane), reduce kernel, one
+// read of the 64 x 128 matrix.
 #ifdef LOOPD_WITH_OPENCL
 #include <CL/cl.h>
 
@@ -31,15 +32,15 @@ struct M2dpOpenCl::State {
   cl_context context = nullptr;
   cl_command_queue queue = nullptr;
   cl_program program = nullptr;
-  cl_kernel k_moments = nullptr, k_extent = nullptr, k_bin = nullptr, k_reduce = nullptr;
-  Buffer xyz, xs, ys, zs, moments, extent, frame, planes, params, partial, signature;
+  cl_kernel k_moments = nullptr, k_extent = nullptr, k_codes = nullptr, k_count = nullptr, k_reduce = nullptr;
+  Buffer xyz, xs, ys, zs, moments, extent, frame, planes, params, codes, partial, signature;
   std::vector<float> host_moments, host_extent;
   std::vector<std::uint32_t> host_signature;
 
   ~State() {
-    for (Buffer* b : {&xyz, &xs, &ys, &zs, &moments, &extent, &frame, &planes, &params, &partial, &signature})
+    for (Buffer* b : {&xyz, &xs, &ys, &zs, &moments, &extent, &frame, &planes, &params, &codes, &partial, &signature})
       if (b->mem) clReleaseMemObject(b->mem);
-    for (cl_kernel k : {k_moments, k_extent, k_bin, k_reduce})
+    for (cl_kernel k : {k_moments, k_extent, k_codes, k_count, k_reduce})
       if (k) clReleaseKernel(k);
     if (program) clReleaseProgram(program);
     if (queue) clReleaseCommandQueue(queue);
@@ -107,7 +108,8 @@ M2dpOpenCl::M2dpOpenCl(const M2dpConfig& config) : config_(config), state_(std::
     return;
   }
   const std::pair<cl_kernel*, const char*> kernels[] = {
-      {&s.k_moments, "m2dp_moments"}, {&s.k_extent, "m2dp_extent"}, {&s.k_bin, "m2dp_bin"}, {&s.k_reduce, "m2dp_reduce"}};
+      {&s.k_moments, "m2dp_moments"}, {&s.k_extent, "m2dp_extent"}, {&s.k_codes, "m2dp_codes"}, {&s.k_count, "m2dp_count"},
+      {&s.k_reduce, "m2dp_reduce"}};
   for (const auto& [k, name] : kernels) {
     *k = clCreateKernel(s.program, name, &err);
     if (err != CL_SUCCESS) {
@@ -260,7 +262,8 @@ M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
   result.centroid = f.centroid + shift.cast<double>();
   result.max_radius = std::sqrt(f.max_r2);
 
-  // Pass 3: all planes x all chunks in one launch, then the per-chunk histograms summed on the device.
+  // Pass 3: bin codes of all planes x all points in one launch, counts per chunk and plane in a second, then the
+  // per-chunk histograms summed on the device.
   const std::vector<float> planes = plane_table(config_, f.axes, f.centroid);
   const std::vector<float> params = bin_params(config_, f.max_r2);
   if ((err = clEnqueueWriteBuffer(s.queue, s.planes.mem, CL_FALSE, 0, planes.size() * sizeof(float), planes.data(), 0, nullptr, nullptr)) !=
@@ -268,23 +271,33 @@ M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
       (err = clEnqueueWriteBuffer(s.queue, s.params.mem, CL_FALSE, 0, params.size() * sizeof(float), params.data(), 0, nullptr, nullptr)) !=
           CL_SUCCESS)
     return fail("upload planes", err);
-  set_arg(s.k_bin, 0, s.xs.mem);
-  set_arg(s.k_bin, 1, s.ys.mem);
-  set_arg(s.k_bin, 2, s.zs.mem);
   // max_points: only every stride-th point is binned (the moment and extent passes above used all points).
   const int stride = binning_stride(points.size(), config_.max_points);
   const int n_bin = (n + stride - 1) / stride;
+  const int n_pad = (n_bin + M2DP_WG - 1) / M2DP_WG * M2DP_WG;
   const int bin_chunks = (n_bin + M2DP_CHUNK - 1) / M2DP_CHUNK;
   result.num_points = n_bin;
-  set_arg(s.k_bin, 3, n_bin);
-  set_arg(s.k_bin, 4, s.planes.mem);
-  set_arg(s.k_bin, 5, s.params.mem);
-  set_arg(s.k_bin, 6, s.partial.mem);
-  set_arg(s.k_bin, 7, stride);
-  const std::size_t bin_global[2] = {static_cast<std::size_t>(bin_chunks), num_planes};
-  const std::size_t bin_local[2] = {1, 1};
-  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_bin, 2, nullptr, bin_global, bin_local, 0, nullptr, nullptr)) != CL_SUCCESS)
-    return fail("m2dp_bin", err);
+  if ((err = s.ensure(s.codes, num_planes * static_cast<std::size_t>(n_pad), CL_MEM_READ_WRITE)) != CL_SUCCESS) return fail("buffer", err);
+  set_arg(s.k_codes, 0, s.xs.mem);
+  set_arg(s.k_codes, 1, s.ys.mem);
+  set_arg(s.k_codes, 2, s.zs.mem);
+  set_arg(s.k_codes, 3, n_bin);
+  set_arg(s.k_codes, 4, stride);
+  set_arg(s.k_codes, 5, s.planes.mem);
+  set_arg(s.k_codes, 6, s.params.mem);
+  set_arg(s.k_codes, 7, s.codes.mem);
+  set_arg(s.k_codes, 8, n_pad);
+  const std::size_t codes_global = static_cast<std::size_t>(n_pad), codes_local = M2DP_WG;
+  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_codes, 1, nullptr, &codes_global, &codes_local, 0, nullptr, nullptr)) != CL_SUCCESS)
+    return fail("m2dp_codes", err);
+  set_arg(s.k_count, 0, s.codes.mem);
+  set_arg(s.k_count, 1, n_bin);
+  set_arg(s.k_count, 2, n_pad);
+  set_arg(s.k_count, 3, s.partial.mem);
+  const std::size_t count_global[2] = {static_cast<std::size_t>(bin_chunks), num_planes};
+  const std::size_t count_local[2] = {1, 1};
+  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_count, 2, nullptr, count_global, count_local, 0, nullptr, nullptr)) != CL_SUCCESS)
+    return fail("m2dp_count", err);
   const int chunks_arg = bin_chunks;
   set_arg(s.k_reduce, 0, s.partial.mem);
   set_arg(s.k_reduce, 1, chunks_arg);
