@@ -77,7 +77,7 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
   if (features && !features->ok) features.reset();
 
   // Current best estimate of where this keyframe is: the odometry pose in the corrected map frame.
-  corrector_.add_pose(input.T_odom_sensor, input.residual);
+  corrector_.add_keyframe(input.T_odom_sensor, input.residual);
   const Eigen::Isometry3d T_map_query = corrector_.T_map_odom() * input.T_odom_sensor;
 
   StoredKeyframe stored{input, features, travelled_};
@@ -153,12 +153,20 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
       loop.query_index = static_cast<int>(input.id);
       loop.match_index = static_cast<int>(r.kf->input.id);
       loop.T_match_query = v.T_match_query;
-      loop.information = v.information;
-      corrector_.add_loop(loop);
+      // verify() gives the GICP information in (rx, ry, rz, tx, ty, tz) order; the corrector takes (t, r).
+      loop.information.topLeftCorner<3, 3>() = v.information.bottomRightCorner<3, 3>();
+      loop.information.bottomRightCorner<3, 3>() = v.information.topLeftCorner<3, 3>();
+      loop.information.topRightCorner<3, 3>() = v.information.bottomLeftCorner<3, 3>();
+      loop.information.bottomLeftCorner<3, 3>() = v.information.topRightCorner<3, 3>();
+      const CorrectionResult cr = corrector_.add_loop(loop);
+      if (!cr.ok) {
+        out.decisions.back().reason = "accepted, but the correction refused the loop: " + cr.reason;
+        break;
+      }
       CorrectionOutput c;
       c.revision = ++revision_;
       c.loop_event_id = d.event_id;
-      c.method = corrector_.method_name();
+      c.method = to_string(cr.method);
       c.T_map_sensor = corrector_.corrected_poses();
       c.T_map_odom = corrector_.T_map_odom();
       c.ids.reserve(keyframes_.size());
@@ -167,9 +175,6 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
         c.ids.push_back(k.input.id);
         c.utimes.push_back(k.input.utime);
       }
-      std::vector<Eigen::Vector3d> positions;
-      positions.reserve(c.T_map_sensor.size());
-      for (const auto& T : c.T_map_sensor) positions.push_back(T.translation());
       c.ms = sw.ms();
       out.correction = std::move(c);
       break;

@@ -19,6 +19,15 @@ namespace loopd {
 
 /// @brief Everything the loop detector can be tuned with; defaults from the papers where they give one.
 struct LoopDetectorConfig {
+  /// Stages run single-threaded inside the detector: the daemon parallelises over keyframes instead, and nested
+  /// OpenMP teams on top of the worker pool would only oversubscribe the cores.
+  LoopDetectorConfig() {
+    m2dp.num_threads = 1;
+    prepare.num_threads = 1;
+    verify.four_pcs.num_threads = 1;
+    verify.gicp.num_threads = 1;
+    correction.graph.num_threads = 1;
+  }
   std::string sensor = "hdl64";        ///< lidar model preset (vlp16, hdl32, hdl64, os1-64) for segmentation
   KeyframeConfig keyframe;             ///< Ren 2019 Sec. 3.3.2
   DistanceGateConfig gate;             ///< Vlaminck 2019 Sec. 4, Ren 2019 Sec. 3.4.1

@@ -1,0 +1,108 @@
+// Live mode: loopd listens on UDP multicast (ttl=0, routed through loopback), lcm-logplayer plays a simulated drive
+// at 1x, lcm-logger records what loopd publishes. The accepted loops must be those of a replay of the same drive,
+// and status must show nothing dropped. Skips when multicast is not routed through loopback (needs root to set up:
+// scripts/test does it).
+#include <catch2/catch.hpp>
+
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <set>
+#include <sys/wait.h>
+#include <thread>
+#include <unistd.h>
+
+#include <loopd/loop_event_t.hpp>
+#include <loopd/status_t.hpp>
+
+#include "lcm_log.hpp"
+#include "message_convert.hpp"
+
+using namespace loopd;
+namespace fs = std::filesystem;
+
+namespace {
+const std::string kBin = LOOPD_BINARY_DIR;
+
+int run(const std::string& cmd) {
+  const int status = std::system((cmd + " >/dev/null 2>&1").c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+pid_t spawn(const std::vector<std::string>& args) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execvp(argv[0], argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+int stop(pid_t pid) {
+  kill(pid, SIGTERM);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+struct Published {
+  std::set<std::pair<std::int64_t, std::int64_t>> accepted;  // (query utime, match utime)
+  status_t status{};
+  bool has_status = false;
+};
+
+Published read_published(const std::string& path) {
+  Published p;
+  LogReader r;
+  std::string error;
+  if (!r.open(path, &error)) return p;
+  LogEvent ev;
+  while (r.next(&ev)) {
+    if (ev.channel == channels::kLoopEvent) {
+      loop_event_t e;
+      if (LogReader::decode(ev, &e) && e.status == loop_event_t::STATUS_ACCEPTED) p.accepted.insert({e.query_utime, e.match_utime});
+    } else if (ev.channel == channels::kStatus) {
+      p.has_status = LogReader::decode(ev, &p.status) || p.has_status;
+    }
+  }
+  return p;
+}
+}  // namespace
+
+TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions and drops nothing") {
+  if (run("ip route get 239.255.76.67 | grep -q 'dev lo'") != 0) {
+    WARN("skipped: multicast 239.255.76.0/24 is not routed through loopback (as root: ip link set lo multicast on; "
+         "ip route add 239.255.76.0/24 dev lo)");
+    return;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("loopd_live_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const std::string drive = (dir / "drive.lcmlog").string();
+  REQUIRE(run(kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 340 --seed 11 --route block --quiet") == 0);
+  REQUIRE(run(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + drive + " --output " + (dir / "replay.lcmlog").string()) == 0);
+  const Published replay = read_published((dir / "replay.lcmlog").string());
+
+  const std::string port = std::to_string(7700 + getpid() % 200);
+  const std::string url = "udpm://239.255.76.67:" + port + "?ttl=0&recv_buf_size=8388608";
+  const pid_t loopd = spawn({kBin + "/daemon/loopd", "--sensor", "vlp16", "--quiet", "--lcm-url", url});
+  const pid_t logger = spawn({"lcm-logger", "--lcm-url=" + url, "-c", "LOOP_EVENT|CORRECTED_TRAJECTORY|LOOPD_STATUS", "-f", (dir / "live.lcmlog").string()});
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  REQUIRE(run("lcm-logplayer -l '" + url + "' -s 1 -e 'LIDAR_SCAN|ODOMETRY_POSE' " + drive) == 0);
+  std::this_thread::sleep_for(std::chrono::seconds(4));  // let the workers finish and a status go out
+  CHECK(stop(loopd) == 0);
+  stop(logger);
+
+  const Published live = read_published((dir / "live.lcmlog").string());
+  REQUIRE(live.has_status);
+  REQUIRE(live.status.num_channels == 2);
+  CHECK(live.status.channels[0].received == 340);
+  CHECK(live.status.channels[0].dropped == 0);
+  CHECK(live.status.channels[1].received == 340);
+  CHECK(live.status.shed == 0);
+  CHECK(live.accepted.size() >= 10);
+  CHECK(live.accepted == replay.accepted);
+  fs::remove_all(dir);
+}
