@@ -112,42 +112,52 @@ __kernel void m2dp_extent(__global const float* xs, __global const float* ys, __
   e[15] = 0.0f;
 }
 
-// Pass 3a: bin code of every (plane, binned point); one work-item per point, wide work-groups.
+// Pass 3a: bin code of every (plane, binned point); one work-item per M2DP_VEC = 8 consecutive binned
+// points, explicit float8 arithmetic over the points (SIMD on a CPU device without relying on PoCL's
+// work-group vectoriser, which left the scalar version of this kernel unvectorised here), a loop over
+// all planes with plane parameters uniform across work-items, contiguous uchar8 stores.
 // Vlaminck 2019 Sec. 4.1: a point projects onto plane X_j at (u, v) = (e1.p, e2.p) relative to the
 // projected centroid; rings have outer radii k^2 r (k = 1..l, l^2 r = farthest point) and each ring
 // has t sectors over (-pi, pi]. Ring: count of squared edges (k^2 r)^2 <= u^2 + v^2. Sector: the half
 // turn from the sign of v, the quarter from the sign of the folded u, and inside the quarter the count
 // of boundaries with |v| >= |u| tan(j 2 pi / t), mirrored in the second quarter (the same arithmetic
 // as bin_of() and the CPU loops in src/loopd/descriptor: no sqrt, no atan2, no atomics, no branches).
-// Shaped for PoCL's work-group vectoriser: work-items are independent points, the plane loop has the
-// same trip count in every work-item (PoCL makes the work-item loop the inner, vectorised loop), and
-// the stores codes[plane * n_pad + i] are contiguous across work-items. On a GPU the same shape is one
-// thread per point with coalesced loads and stores.
-// The i-th binned point is xs[i * stride] (max_points subsampling of the binning only); work-items
-// past n repeat the last point into the padding, which pass 3b ignores.
+// The k-th binned point is xs[k * stride] (max_points subsampling of the binning only); lanes past n
+// repeat the last point into the padding, which pass 3b ignores.
 // bin_params = {(k^2 r)^2 for k = 1..l-1, then tan(j 2 pi / t) for j = 1..t/4-1}.
+#define M2DP_LANE(k) (min(base + (k), n - 1) * stride)
 __kernel __attribute__((reqd_work_group_size(M2DP_WG, 1, 1)))
 void m2dp_codes(__global const float* xs, __global const float* ys, __global const float* zs, const int n, const int stride,
                 __constant float* planes, __constant float* bin_params, __global uchar* codes, const int n_pad) {
-  const int i = (int)get_global_id(0);
-  const int g = min(i, n - 1) * stride;
-  const float x = xs[g], y = ys[g], z = zs[g];
+  const int base = (int)get_global_id(0) * M2DP_VEC;
+  float8 x, y, z;
+  if (stride == 1 && base + M2DP_VEC <= n) {
+    x = vload8(0, xs + base);
+    y = vload8(0, ys + base);
+    z = vload8(0, zs + base);
+  } else {
+    const int g0 = M2DP_LANE(0), g1 = M2DP_LANE(1), g2 = M2DP_LANE(2), g3 = M2DP_LANE(3);
+    const int g4 = M2DP_LANE(4), g5 = M2DP_LANE(5), g6 = M2DP_LANE(6), g7 = M2DP_LANE(7);
+    x = (float8)(xs[g0], xs[g1], xs[g2], xs[g3], xs[g4], xs[g5], xs[g6], xs[g7]);
+    y = (float8)(ys[g0], ys[g1], ys[g2], ys[g3], ys[g4], ys[g5], ys[g6], ys[g7]);
+    z = (float8)(zs[g0], zs[g1], zs[g2], zs[g3], zs[g4], zs[g5], zs[g6], zs[g7]);
+  }
   for (int plane = 0; plane < M2DP_NPLANES; ++plane) {
     __constant float* pl = planes + plane * M2DP_PLANE_STRIDE;
-    const float u = pl[0] * x + pl[1] * y + pl[2] * z + pl[3];
-    const float v = pl[4] * x + pl[5] * y + pl[6] * z + pl[7];
-    const float r2 = u * u + v * v;
-    float ring = 0.0f;
+    const float8 u = pl[0] * x + pl[1] * y + pl[2] * z + pl[3];
+    const float8 v = pl[4] * x + pl[5] * y + pl[6] * z + pl[7];
+    const float8 r2 = u * u + v * v;
+    int8 ring = (int8)(0);
 #pragma unroll
-    for (int k = 0; k < M2DP_L - 1; ++k) ring += (r2 >= bin_params[k]) ? 1.0f : 0.0f;
-    const float au = fabs(u), av = fabs(v);
-    float kq = 0.0f;
+    for (int k = 0; k < M2DP_L - 1; ++k) ring -= (r2 >= bin_params[k]);  // true is -1 per lane
+    const float8 au = fabs(u), av = fabs(v);
+    int8 kq = (int8)(0);
 #pragma unroll
-    for (int j = 0; j < M2DP_T / 4 - 1; ++j) kq += (av >= au * bin_params[M2DP_L - 1 + j]) ? 1.0f : 0.0f;
-    const int lower = v < 0.0f;
-    const int mirrored = lower ? (u > 0.0f) : (u < 0.0f);
-    const float sector = (lower ? 0.0f : (float)M2DP_HALF_T) + (mirrored ? (float)(M2DP_HALF_T - 1) - kq : kq);
-    codes[plane * n_pad + i] = (uchar)(int)(ring * (float)M2DP_T + sector);
+    for (int j = 0; j < M2DP_T / 4 - 1; ++j) kq -= (av >= au * bin_params[M2DP_L - 1 + j]);
+    const int8 lower = v < 0.0f;
+    const int8 mirrored = (lower & (u > 0.0f)) | (~lower & (u < 0.0f));
+    const int8 sector = select((int8)(M2DP_HALF_T), (int8)(0), lower) + select(kq, (int8)(M2DP_HALF_T - 1) - kq, mirrored);
+    vstore8(convert_uchar8(ring * M2DP_T + sector), 0, codes + plane * n_pad + base);
   }
 }
 

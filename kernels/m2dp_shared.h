@@ -10,9 +10,11 @@
  * both cores many independent work-items (120k points -> 15 chunks x 64 planes = 960). */
 #define M2DP_CHUNK 8192
 
-/* Work-group size of the per-point code kernel (m2dp_codes): wide, so that PoCL vectorises across
- * work-items; a multiple of every SIMD width and of a GPU warp/wavefront. */
-#define M2DP_WG 256
+/* Work-group size of the code kernel (m2dp_codes), each work-item M2DP_VEC points: 512 points per group. */
+#define M2DP_WG 64
+
+/* Binned points per work-item of m2dp_codes (float8 lanes). */
+#define M2DP_VEC 8
 
 /* Points counted at once inside a counting work-item (m2dp_count): its 16-bit histograms cannot overflow. */
 #define M2DP_SUBBLOCK 4096

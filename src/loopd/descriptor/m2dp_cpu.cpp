@@ -43,13 +43,16 @@ inline __attribute__((always_inline)) void codes_fixed(const float* __restrict x
     const float v = e2x * xs[i] + e2y * ys[i] + e2z * zs[i] + d2;
     const float r2 = u * u + v * v;
     float ring = 0.0f;
-    for (int k = 0; k < L - 1; ++k) ring += (r2 >= edge[k]) ? 1.0f : 0.0f;
+#pragma GCC unroll 32
+    for (int k = 0; k < L - 1; ++k) ring += static_cast<float>(r2 >= edge[k]);
     const float au = std::fabs(u), av = std::fabs(v);
     float kq = 0.0f;
-    for (int j = 0; j < Q; ++j) kq += (av >= au * tq[j]) ? 1.0f : 0.0f;
-    const bool lower = v < 0.0f;
-    const bool mirrored = lower ? (u > 0.0f) : (u < 0.0f);
-    const float sector = (lower ? 0.0f : kHalf) + (mirrored ? kLast - kq : kq);
+#pragma GCC unroll 32
+    for (int j = 0; j < Q; ++j) kq += static_cast<float>(av >= au * tq[j]);
+    // Branch-free (0/1 floats) so that the loop vectorises: sector = (lower ? 0 : t/2) + (mirrored ? t/2-1-kq : kq).
+    const float lower = static_cast<float>(v < 0.0f);
+    const float mirrored = lower * static_cast<float>(u > 0.0f) + (1.0f - lower) * static_cast<float>(u < 0.0f);
+    const float sector = (1.0f - lower) * kHalf + kq + mirrored * (kLast - 2.0f * kq);
     bin[i] = static_cast<std::uint8_t>(static_cast<int>(ring * kT + sector));
   }
 }
@@ -85,9 +88,9 @@ inline __attribute__((always_inline)) void general_codes(const float* __restrict
   const float tf = static_cast<float>(t), half = static_cast<float>(t / 2), last = static_cast<float>(t / 2 - 1);
   std::uint8_t* __restrict bin = s->bin;
   for (int i = 0; i < m; ++i) {
-    const bool lower = v[i] < 0.0f;
-    const bool mirrored = lower ? (u[i] > 0.0f) : (u[i] < 0.0f);
-    const float sector = (lower ? 0.0f : half) + (mirrored ? last - kk[i] : kk[i]);
+    const float lower = v[i] < 0.0f ? 1.0f : 0.0f;
+    const float mirrored = lower * (u[i] > 0.0f ? 1.0f : 0.0f) + (1.0f - lower) * (u[i] < 0.0f ? 1.0f : 0.0f);
+    const float sector = (1.0f - lower) * half + kk[i] + mirrored * (last - 2.0f * kk[i]);
     bin[i] = static_cast<std::uint8_t>(static_cast<int>(ring[i] * tf + sector));
   }
 }

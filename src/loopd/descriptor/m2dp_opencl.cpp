@@ -274,7 +274,8 @@ M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
   // max_points: only every stride-th point is binned (the moment and extent passes above used all points).
   const int stride = binning_stride(points.size(), config_.max_points);
   const int n_bin = (n + stride - 1) / stride;
-  const int n_pad = (n_bin + M2DP_WG - 1) / M2DP_WG * M2DP_WG;
+  constexpr int kGroupPoints = M2DP_WG * M2DP_VEC;
+  const int n_pad = (n_bin + kGroupPoints - 1) / kGroupPoints * kGroupPoints;
   const int bin_chunks = (n_bin + M2DP_CHUNK - 1) / M2DP_CHUNK;
   result.num_points = n_bin;
   if ((err = s.ensure(s.codes, num_planes * static_cast<std::size_t>(n_pad), CL_MEM_READ_WRITE)) != CL_SUCCESS) return fail("buffer", err);
@@ -287,7 +288,7 @@ M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
   set_arg(s.k_codes, 6, s.params.mem);
   set_arg(s.k_codes, 7, s.codes.mem);
   set_arg(s.k_codes, 8, n_pad);
-  const std::size_t codes_global = static_cast<std::size_t>(n_pad), codes_local = M2DP_WG;
+  const std::size_t codes_global = static_cast<std::size_t>(n_pad / M2DP_VEC), codes_local = M2DP_WG;
   if ((err = clEnqueueNDRangeKernel(s.queue, s.k_codes, 1, nullptr, &codes_global, &codes_local, 0, nullptr, nullptr)) != CL_SUCCESS)
     return fail("m2dp_codes", err);
   set_arg(s.k_count, 0, s.codes.mem);
