@@ -1,5 +1,8 @@
 #include <catch2/catch.hpp>
 
+#include <fstream>
+#include <sstream>
+
 #include "daemon_config.hpp"
 
 using namespace loopd;
@@ -39,4 +42,24 @@ TEST_CASE("values are read into the config") {
   CHECK(c.node.scan_channel == "MY_SCAN");
   CHECK(c.engine.detector.keyframe.min_distance == 3.5);
   CHECK(c.engine.num_threads == 2);
+}
+
+TEST_CASE("the documented example config names every field and equals the defaults") {
+  DaemonConfig from_file, defaults;
+  std::string error;
+  REQUIRE(load_config(std::string(LOOPD_SOURCE_DIR) + "/daemon/loopd.example.yaml", &from_file, &error));
+  CHECK(dump_config(from_file) == dump_config(defaults));
+  // Every field of the effective config appears in the example.
+  std::ifstream in(std::string(LOOPD_SOURCE_DIR) + "/daemon/loopd.example.yaml");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string example = ss.str();
+  std::stringstream dump(dump_config(defaults));
+  std::string line;
+  while (std::getline(dump, line)) {
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    const std::string key = line.substr(line.find_first_not_of(' '), colon - line.find_first_not_of(' '));
+    CHECK(example.find(key + ":") != std::string::npos);
+  }
 }
