@@ -80,3 +80,28 @@ TEST_CASE("M2DP max_points subsampling stays far below the revisit distance on s
   CHECK(max_err[2] < 0.01f);
   CHECK(max_err[3] < 0.005f);
 }
+
+TEST_CASE("M2DP max_points: the OpenCL backend bins the same strided points as the CPU reference", "[m2dp][subsample][opencl]") {
+  LOOPD_REQUIRE_DATA(path, "kitti/seq00/000094.bin");
+  PointCloud c;
+  std::string err;
+  REQUIRE(read_cloud_file(path, &c, &err));
+  const std::vector<Eigen::Vector3f> points = remove_non_finite(c).points;
+  M2dpConfig config;
+  config.max_points = 30000;
+  config.backend = Backend::kCpu;
+  const M2dpResult cpu = M2dp(config).compute(points);
+  config.backend = Backend::kOpenCl;
+  config.log_fallback = true;
+  const M2dp cl(config);
+  if (cl.backend() != Backend::kOpenCl) {
+    WARN("skipped: no OpenCL device");
+    return;
+  }
+  const M2dpResult gpu = cl.compute(points);
+  REQUIRE(cpu.ok);
+  REQUIRE(gpu.ok);
+  CHECK(cpu.num_points == gpu.num_points);
+  CHECK(cpu.num_points <= 30000);
+  CHECK((cpu.descriptor - gpu.descriptor).cwiseAbs().maxCoeff() <= 1e-4f);
+}
