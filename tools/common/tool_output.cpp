@@ -30,15 +30,19 @@ Progress::Progress(std::string label, std::int64_t total, bool enabled)
 void Progress::update(std::int64_t done) {
   if (!enabled_) return;
   const double t = now_s();
-  if (done < total_ && t - last_draw_ < 0.1) return;
+  const bool tty = isatty(fileno(stderr));
+  // A terminal gets a bar redrawn in place at most 10 times a second; a log file a line every 10 % or 10 s.
+  const std::int64_t step = std::max<std::int64_t>(1, total_ / 10);
+  if (done < total_ && (tty ? t - last_draw_ < 0.1 : (done / step == last_step_ && t - last_draw_ < 10.0))) return;
+  if (!tty && done >= total_ && last_step_ == done / step && last_draw_ >= 0) return;
   last_draw_ = t;
+  last_step_ = done / step;
   constexpr int kWidth = 30;
   const double frac = total_ > 0 ? std::min(1.0, static_cast<double>(done) / static_cast<double>(total_)) : 0.0;
   const int filled = static_cast<int>(frac * kWidth);
   std::string bar(static_cast<std::size_t>(filled), '=');
   if (filled < kWidth) bar += '>';
   bar.resize(kWidth, ' ');
-  const bool tty = isatty(fileno(stderr));
   std::fprintf(stderr, "%s%s [%s] %lld/%lld %.1f s%s", tty ? "\r" : "", label_.c_str(), bar.c_str(), static_cast<long long>(done),
                static_cast<long long>(total_), t - start_, tty ? "" : "\n");
   std::fflush(stderr);

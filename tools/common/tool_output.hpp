@@ -18,6 +18,7 @@ class Progress {
   std::int64_t total_;
   bool enabled_;
   double last_draw_ = -1.0;
+  std::int64_t last_step_ = -1;
   double start_;
 };
 

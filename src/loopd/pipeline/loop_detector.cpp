@@ -22,6 +22,7 @@ std::optional<std::string> LoopDetectorConfig::validate() const {
   if (auto e = correction.validate()) return "correction: " + *e;
   if (!(max_descriptor_distance > 0.0)) return "max_descriptor_distance must be > 0";
   if (max_candidates_per_keyframe < 1) return "max_candidates_per_keyframe must be >= 1";
+  if (guided_window < 0) return "guided_window must be >= 0";
   return std::nullopt;
 }
 
@@ -127,7 +128,18 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
       LoopDecision d = make_decision(input, *r.kf, r.gate_distance, radius);
       d.descriptor_distance = r.descriptor_distance;
       d.ms_descriptor = features->ms_descriptor;
-      const VerifyResult v = verify(features->prepared, r.kf->features->prepared, config_.verify);
+      VerifyResult v;
+      const bool guided = input.id - last_accepted_id_ <= config_.guided_window;
+      if (guided) {
+        // The corrected map is locally consistent right after a loop: its relative pose seeds GICP.
+        const Eigen::Isometry3d& T_map_match = corrector_.corrected_poses()[static_cast<std::size_t>(r.kf->input.id)];
+        v = verify_from_guess(features->prepared, r.kf->features->prepared, T_map_match.inverse() * T_map_query, config_.verify);
+      }
+      if (!guided || !v.accepted) {
+        const double guided_ms = guided ? v.ms_total : 0.0;
+        v = verify(features->prepared, r.kf->features->prepared, config_.verify);
+        v.ms_total += guided_ms;
+      }
       d.stage = v.accepted ? "accepted" : to_string(v.stage);
       d.reason = v.reason;
       d.lcp_fraction = v.lcp_fraction;
@@ -147,6 +159,7 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
         continue;
       }
       ++loops_accepted_;
+      last_accepted_id_ = input.id;
       travelled_at_last_loop_ = travelled_;
       Stopwatch sw;
       LoopConstraint loop;

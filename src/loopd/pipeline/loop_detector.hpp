@@ -36,6 +36,10 @@ struct LoopDetectorConfig {
   VerifyConfig verify;                 ///< Vlaminck 2019 Sec. 4.2-4.3
   double max_descriptor_distance = 0.35;  ///< candidates above this M2DP distance are not verified
   int max_candidates_per_keyframe = 3;    ///< verified best first, at most this many per keyframe
+  /// Within this many keyframes after an accepted loop the corrected map already knows where the query lies relative
+  /// to its candidates: GICP starts from that relative pose and the global 4PCS search is skipped (it runs only when
+  /// this guided check rejects). 0 = always run 4PCS (the paper's pipeline).
+  int guided_window = 5;
   LoopCorrectorConfig correction;      ///< Vlaminck 2019 Sec. 4.4 / Ren 2019 Sec. 3.4.3
   std::optional<std::string> validate() const;
 };
@@ -136,6 +140,7 @@ class LoopDetector {
   std::int64_t revision_ = 0;
   std::int64_t loops_accepted_ = 0;
   std::int64_t loops_rejected_ = 0;
+  std::int64_t last_accepted_id_ = -1000000;
 };
 
 }  // namespace loopd
