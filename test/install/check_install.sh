@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# cmake --install into a temporary prefix, then build and run a project that uses find_package(loopd).
+# Usage: check_install.sh BUILD_DIR SOURCE_DIR
+set -euo pipefail
+build=$1; src=$2
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+cmake --install "$build" --prefix "$tmp/prefix" >/dev/null
+for f in bin/loopd bin/loopd-sim bin/loopd-eval bin/loopd-spy share/java/loopd_types.jar include/loopd/loop_event_t.hpp \
+         include/loopd/core/point_cloud.hpp lib/cmake/loopd/loopdConfig.cmake; do
+  [ -e "$tmp/prefix/$f" ] || { echo "missing after install: $f"; exit 1; }
+done
+cmake -S "$src/test/install/consumer" -B "$tmp/consumer" -DCMAKE_PREFIX_PATH="$tmp/prefix" -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$tmp/consumer" -j2 >/dev/null
+"$tmp/consumer/consumer"
+"$tmp/prefix/bin/loopd" --version
