@@ -13,6 +13,7 @@
 #include <loopd/status_t.hpp>
 
 #include "lcm_log.hpp"
+#include "support/run_command.hpp"
 #include "message_convert.hpp"
 
 using namespace loopd;
@@ -20,16 +21,6 @@ namespace fs = std::filesystem;
 
 namespace {
 const std::string kLoopd = std::string(LOOPD_BINARY_DIR) + "/daemon/loopd";
-
-std::string run_capture(const std::string& cmd, int* rc) {
-  std::string out;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  char buf[4096];
-  while (p && fgets(buf, sizeof(buf), p)) out += buf;
-  const int status = p ? pclose(p) : -1;
-  *rc = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return out;
-}
 
 fs::path temp_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("loopd_test_" + name + "_" + std::to_string(getpid()));
@@ -41,18 +32,18 @@ fs::path temp_dir(const std::string& name) {
 TEST_CASE("loopd --help lists every option and --version prints a version") {
   REQUIRE(fs::exists(kLoopd));
   int rc = 0;
-  const std::string help = run_capture(kLoopd + " --help", &rc);
+  const std::string help = loopd::test::run_command(kLoopd + " --help", &rc);
   CHECK(rc == 0);
   for (const char* opt : {"--lcm-url", "--config", "--sensor", "--threads", "--replay", "--output", "--print-config", "--version"})
     CHECK(help.find(opt) != std::string::npos);
-  CHECK(run_capture(kLoopd + " --version", &rc).find("loopd") != std::string::npos);
+  CHECK(loopd::test::run_command(kLoopd + " --version", &rc).find("loopd") != std::string::npos);
 }
 
 TEST_CASE("loopd refuses a config with a wrong value, naming the field") {
   const fs::path dir = temp_dir("config");
   std::ofstream(dir / "bad.yaml") << "keyframe:\n  min_distance: far\n";
   int rc = 0;
-  const std::string out = run_capture(kLoopd + " --config " + (dir / "bad.yaml").string(), &rc);
+  const std::string out = loopd::test::run_command(kLoopd + " --config " + (dir / "bad.yaml").string(), &rc);
   CHECK(rc != 0);
   CHECK(out.find("keyframe.min_distance") != std::string::npos);
   fs::remove_all(dir);
@@ -114,7 +105,7 @@ TEST_CASE("garbage, truncated, NaN, empty, duplicate and orphan input is counted
     w.write_message(channels::kScan, 9'000'000, to_message(cloud, 9'000'000, 6, "lidar"));  // no pose ever
   }
   int rc = 0;
-  const std::string log = run_capture(kLoopd + " --quiet --replay " + in + " --output " + out, &rc);
+  const std::string log = loopd::test::run_command(kLoopd + " --quiet --replay " + in + " --output " + out, &rc);
   INFO(log);
   REQUIRE(rc == 0);
   LogReader r;

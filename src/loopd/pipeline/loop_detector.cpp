@@ -139,6 +139,8 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
         const double guided_ms = guided ? v.ms_total : 0.0;
         v = verify(features->prepared, r.kf->features->prepared, config_.verify);
         v.ms_total += guided_ms;
+      } else {
+        v.reason = "guided: GICP from the corrected map's relative pose (4PCS skipped)" + (v.reason.empty() ? std::string() : "; " + v.reason);
       }
       d.stage = v.accepted ? "accepted" : to_string(v.stage);
       d.reason = v.reason;
