@@ -172,6 +172,7 @@ void bind_stage_configs(Binder& b, LoopDetectorConfig& d) {
   b.field("correction.graph.odometry_rotation_sigma", c.graph.odometry_rotation_sigma);
   b.field("correction.graph.max_iterations", c.graph.max_iterations);
   b.field("correction.graph.use_plane_constraints", c.graph.use_plane_constraints);
+  b.field("correction.graph.plane_cell_size", d.plane_cell_size);
 }
 
 void bind(Binder& b, DaemonConfig& c) {

@@ -1,6 +1,7 @@
 #include "loopd/pipeline/loop_detector.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "loopd/core/cloud_ops.hpp"
 #include "loopd/core/stopwatch.hpp"
@@ -60,6 +61,24 @@ KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
   return f;
 }
 
+void LoopDetector::add_ground_plane(std::int64_t id, const KeyframeFeatures& features, const Eigen::Isometry3d& T_map_query) {
+  // Ren 2019, Sec. 3.4.2: the roadway plane as a landmark. The ground is the largest near-horizontal planar segment
+  // below the sensor; keyframes in the same ground cell (plane_cell_size) observe the same plane node.
+  const Cluster* ground = nullptr;
+  for (const Cluster& c : features.prepared.segmentation.clusters) {
+    if (!c.planar || std::abs(c.plane.z()) < 0.97f || c.centroid.z() > -0.5f) continue;
+    if (!ground || c.num_points > ground->num_points) ground = &c;
+  }
+  if (!ground) return;
+  PlaneObservation obs;
+  obs.index = static_cast<int>(id);
+  const auto cx = static_cast<std::int64_t>(std::floor(T_map_query.translation().x() / config_.plane_cell_size));
+  const auto cy = static_cast<std::int64_t>(std::floor(T_map_query.translation().y() / config_.plane_cell_size));
+  obs.plane_id = static_cast<int>(((cx * 73856093) ^ (cy * 19349663)) & 0x7fffffff);
+  obs.plane_sensor = ground->plane.cast<double>();
+  corrector_.add_plane_observation(obs);
+}
+
 LoopDecision LoopDetector::make_decision(const KeyframeInput& q, const StoredKeyframe& m, double gate_distance, double radius) {
   LoopDecision d;
   d.event_id = next_event_id_++;
@@ -81,6 +100,7 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
   corrector_.add_keyframe(input.T_odom_sensor, input.residual);
   const Eigen::Isometry3d T_map_query = corrector_.T_map_odom() * input.T_odom_sensor;
 
+  if (features && config_.correction.graph.use_plane_constraints) add_ground_plane(input.id, *features, T_map_query);
   StoredKeyframe stored{input, features, travelled_};
   if (features) {
     stored_bytes_ += features->prepared.bytes() + static_cast<std::size_t>(features->descriptor.size()) * sizeof(float);

@@ -40,6 +40,9 @@ struct LoopDetectorConfig {
   /// to its candidates: GICP starts from that relative pose and the global 4PCS search is skipped (it runs only when
   /// this guided check rejects). 0 = always run 4PCS (the paper's pipeline).
   int guided_window = 5;
+  /// [m] with correction.graph.use_plane_constraints: keyframes whose ground lies in the same cell of this size
+  /// observe one roadway plane node (Ren 2019, Sec. 3.4.2); a town's ground is only locally planar.
+  double plane_cell_size = 40.0;
   LoopCorrectorConfig correction;      ///< Vlaminck 2019 Sec. 4.4 / Ren 2019 Sec. 3.4.3
   std::optional<std::string> validate() const;
 };
@@ -124,6 +127,7 @@ class LoopDetector {
 
  private:
   struct StoredKeyframe;
+  void add_ground_plane(std::int64_t id, const KeyframeFeatures& features, const Eigen::Isometry3d& T_map_query);
   LoopDecision make_decision(const KeyframeInput& q, const StoredKeyframe& m, double gate_distance, double radius);
 
   LoopDetectorConfig config_;
