@@ -1,6 +1,8 @@
 #include "lcm_node.hpp"
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
@@ -204,7 +206,9 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
     std::cerr << "loopd: cannot initialise LCM with URL '" << node.lcm_url << "'" << std::endl;
     return 3;
   }
-  check_receive_buffer(node.lcm_url, 130000);
+  // Expected scan size from the lidar model (HDL-64E: 64 x 2083 rays, about 2.4 MB on the wire).
+  const auto model = lidar_model_from_name(engine_config.detector.sensor);
+  check_receive_buffer(node.lcm_url, model ? model->rays_per_scan() : 130000);
   const double start = wall_s();
   OutputSink sink(node, &lcm, nullptr, false);
   LoopdEngine engine(engine_config, &sink);
@@ -250,7 +254,8 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
             << engine.stats().device << std::endl;
   while (!stop.load()) {
     if (lcm.handleTimeout(100) < 0) {
-      std::cerr << "loopd: LCM error while handling messages" << std::endl;
+      if (stop.load() || errno == EINTR) continue;  // a signal interrupted the wait
+      std::cerr << "loopd: LCM error while handling messages: " << std::strerror(errno) << std::endl;
       break;
     }
   }
