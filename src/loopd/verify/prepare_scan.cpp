@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace loopd {
 
@@ -38,6 +39,83 @@ std::optional<std::string> PrepareConfig::validate() const {
   return std::nullopt;
 }
 
+namespace {
+
+/// Floor for values well inside the int64 range (voxel coordinates), without a libm call.
+inline std::int64_t floor_to_int(double v) {
+  const auto t = static_cast<std::int64_t>(v);
+  return t - (static_cast<double>(t) > v ? 1 : 0);
+}
+
+/// Voxel centroids of the finite points of `points` within [lo2, hi2] squared range, sorted by voxel key: the same
+/// output as voxel_downsample(crop_range(remove_non_finite(scan))) (same key, same double sums in index order, same
+/// order), fused into one pass without copying the cloud or its attributes. Consecutive lidar returns usually fall in
+/// the same voxel, so the last voxel is remembered and the hash probe skipped for them.
+std::vector<Eigen::Vector3f> crop_voxel_downsample(const std::vector<Eigen::Vector3f>& points, float lo2, float hi2, double leaf_size) {
+  const double inv = 1.0 / leaf_size;
+  constexpr std::int64_t kOffset = 1 << 20;
+  constexpr std::int64_t kLimit = std::int64_t{1} << 21;
+  constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  std::size_t capacity = 16;
+  while (capacity < points.size() / 2) capacity <<= 1;  // voxels << points; grown below when needed
+  std::vector<std::uint64_t> slot_key(capacity, kEmpty);
+  std::vector<std::uint32_t> slot_voxel(capacity);
+  struct Voxel {
+    std::uint64_t key;
+    Eigen::Vector3d sum;
+    std::uint32_t count;
+  };
+  std::vector<Voxel> voxels;
+  voxels.reserve(capacity / 4);
+  auto insert_slot = [&](std::uint64_t key, std::uint32_t v) {
+    std::size_t h = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> 20) & (capacity - 1);
+    while (slot_key[h] != kEmpty && slot_key[h] != key) h = (h + 1) & (capacity - 1);
+    return h;
+  };
+  std::uint64_t last_key = kEmpty;
+  std::uint32_t last_voxel = 0;
+  for (const Eigen::Vector3f& p : points) {
+    const float d2 = p.squaredNorm();  // NaN/Inf fail the range test
+    if (!(d2 >= lo2 && d2 <= hi2) || !p.allFinite()) continue;
+    const std::int64_t x = floor_to_int(p.x() * inv) + kOffset;
+    const std::int64_t y = floor_to_int(p.y() * inv) + kOffset;
+    const std::int64_t z = floor_to_int(p.z() * inv) + kOffset;
+    if (x < 0 || y < 0 || z < 0 || x >= kLimit || y >= kLimit || z >= kLimit) continue;
+    const std::uint64_t key = (static_cast<std::uint64_t>(x) << 42) | (static_cast<std::uint64_t>(y) << 21) | static_cast<std::uint64_t>(z);
+    if (key != last_key) {
+      std::size_t h = insert_slot(key, 0);
+      if (slot_key[h] == kEmpty) {
+        if (2 * (voxels.size() + 1) > capacity) {  // keep the load factor <= 1/2
+          capacity <<= 1;
+          slot_key.assign(capacity, kEmpty);
+          slot_voxel.resize(capacity);
+          for (std::uint32_t v = 0; v < voxels.size(); ++v) {
+            const std::size_t hv = insert_slot(voxels[v].key, v);
+            slot_key[hv] = voxels[v].key;
+            slot_voxel[hv] = v;
+          }
+          h = insert_slot(key, 0);
+        }
+        slot_key[h] = key;
+        slot_voxel[h] = static_cast<std::uint32_t>(voxels.size());
+        voxels.push_back({key, Eigen::Vector3d::Zero(), 0});
+      }
+      last_key = key;
+      last_voxel = slot_voxel[h];
+    }
+    Voxel& v = voxels[last_voxel];
+    v.sum += p.cast<double>();
+    ++v.count;
+  }
+  std::sort(voxels.begin(), voxels.end(), [](const Voxel& a, const Voxel& b) { return a.key < b.key; });
+  std::vector<Eigen::Vector3f> out;
+  out.reserve(voxels.size());
+  for (const Voxel& v : voxels) out.push_back((v.sum / static_cast<double>(v.count)).cast<float>());
+  return out;
+}
+
+}  // namespace
+
 PreparedScan prepare_scan(const PointCloud& scan, const LidarModel* model, const PrepareConfig& config) {
   Stopwatch sw;
   PreparedScan out;
@@ -46,11 +124,19 @@ PreparedScan prepare_scan(const PointCloud& scan, const LidarModel* model, const
     out.error = *err;
     return out;
   }
-  std::size_t removed = 0;
-  const PointCloud finite = remove_non_finite(scan, &removed);
-  out.finite_points = finite.size();
-  const PointCloud cropped = crop_range(finite, config.min_range, config.max_range);
-  if (cropped.empty()) {
+  // One counting pass instead of two filtered copies of the cloud: segment() applies the same finite and range
+  // tests itself, and the voxel grid below reads the scan directly.
+  const float lo2 = static_cast<float>(config.min_range * config.min_range), hi2 = static_cast<float>(config.max_range * config.max_range);
+  std::size_t finite = 0, in_range = 0;
+  for (const Eigen::Vector3f& p : scan.points) {
+    if (!p.allFinite()) continue;
+    ++finite;
+    const float d2 = p.squaredNorm();
+    in_range += (d2 >= lo2 && d2 <= hi2) ? 1 : 0;
+  }
+  const std::size_t removed = scan.size() - finite;
+  out.finite_points = finite;
+  if (in_range == 0) {
     out.error = "no finite points within " + std::to_string(config.min_range) + "-" + std::to_string(config.max_range) + " m (input " +
                 std::to_string(scan.size()) + ", non-finite " + std::to_string(removed) + ")";
     out.ms_total = sw.ms();
@@ -60,18 +146,22 @@ PreparedScan prepare_scan(const PointCloud& scan, const LidarModel* model, const
   SegmentationConfig seg_cfg = config.segmentation;
   seg_cfg.min_range = config.min_range;
   seg_cfg.max_range = config.max_range;
-  out.segmentation = segment(cropped, model, seg_cfg);
+  if (in_range < static_cast<std::size_t>(std::max(seg_cfg.min_cluster_points, 0))) {
+    out.segmentation.error = "too few points to segment";  // what segment() says for the cropped cloud
+  } else {
+    out.segmentation = segment(scan, model, seg_cfg);
+  }
   out.ms_segmentation = seg_sw.ms();
   if (!out.segmentation.error.empty()) out.error = "segmentation: " + out.segmentation.error;
 
-  const PointCloud down = voxel_downsample(cropped, config.voxel_size);
+  std::vector<Eigen::Vector3f> down = crop_voxel_downsample(scan.points, lo2, hi2, config.voxel_size);
   if (config.max_points > 0 && down.size() > config.max_points) {
     // Deterministic stride subsample (voxel order is spatially sorted, so a stride keeps the coverage).
     const double stride = static_cast<double>(down.size()) / static_cast<double>(config.max_points);
     out.points.reserve(config.max_points);
-    for (std::size_t k = 0; k < config.max_points; ++k) out.points.push_back(down.points[static_cast<std::size_t>(static_cast<double>(k) * stride)]);
+    for (std::size_t k = 0; k < config.max_points; ++k) out.points.push_back(down[static_cast<std::size_t>(static_cast<double>(k) * stride)]);
   } else {
-    out.points = down.points;
+    out.points = std::move(down);
   }
   out.points.shrink_to_fit();
   if (config.normal_k_neighbors > 0) {
