@@ -49,28 +49,53 @@ inline float neighbor_threshold(const SegmentationConfig& cfg, float range) {
   return static_cast<float>(std::max(cfg.max_neighbor_distance, cfg.distance_range_scale * range));
 }
 
+// Ring boundaries of a lidar model as sin(elevation): the ring of a point is the number of boundaries below z / r.
+// Same rule as ring_from_elevation (nearest ring, ties to the lower one, half a spacing of tolerance at both ends)
+// without an asin and a double binary search per point.
+struct RingTable {
+  float lo = 0, hi = 0;     // sin of the accepted elevation interval
+  std::vector<float> mids;  // sin of the midpoints between adjacent rings, ascending
+  int ring(float s) const {
+    if (!(s >= lo && s <= hi)) return -1;
+    return static_cast<int>(std::lower_bound(mids.begin(), mids.end(), s) - mids.begin());
+  }
+};
+
+RingTable make_ring_table(const LidarModel& model) {
+  RingTable t;
+  const auto& a = model.vertical_angles_deg;
+  const double deg = kPi / 180.0;
+  const double lo_tol = a.size() > 1 ? 0.5 * (a[1] - a[0]) : 1.0;
+  const double hi_tol = a.size() > 1 ? 0.5 * (a[a.size() - 1] - a[a.size() - 2]) : 1.0;
+  t.lo = static_cast<float>(std::sin(std::max(-90.0, a.front() - lo_tol) * deg));
+  t.hi = static_cast<float>(std::sin(std::min(90.0, a.back() + hi_tol) * deg));
+  for (std::size_t i = 0; i + 1 < a.size(); ++i) t.mids.push_back(static_cast<float>(std::sin(0.5 * (a[i] + a[i + 1]) * deg)));
+  return t;
+}
+
 bool build_range_image(const PointCloud& scan, const LidarModel* model, const SegmentationConfig& cfg, RangeImage* img,
                        std::string* error) {
   const std::size_t n = scan.points.size();
-  std::vector<int> row(n, -1);
   const float min_r = static_cast<float>(cfg.min_range), max_r = static_cast<float>(cfg.max_range);
-  auto usable = [&](const Eigen::Vector3f& p, float* r) {
-    if (!p.allFinite()) return false;
-    *r = p.norm();
-    return *r >= min_r && *r <= max_r;
-  };
+  // Range per point, computed once; -1 marks unusable points (non-finite or outside [min_range, max_range]).
+  std::vector<float> range(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f& p = scan.points[i];
+    const float r = p.norm();  // NaN/Inf fail the test below
+    range[i] = (r >= min_r && r <= max_r && p.allFinite()) ? r : -1.f;
+  }
+  std::vector<int> row(n, -1);
   int rows = 0;
   if (scan.has_rings()) {
     rows = scan.num_rings;
     for (std::size_t i = 0; i < n; ++i) row[i] = scan.ring[i] < rows ? static_cast<int>(scan.ring[i]) : -1;
-  } else if (model != nullptr && model->num_rings > 0) {
+  } else if (model != nullptr && model->num_rings > 0 && !model->vertical_angles_deg.empty()) {
     rows = model->num_rings;
-    for (std::size_t i = 0; i < n; ++i) {
-      const Eigen::Vector3f& p = scan.points[i];
-      float r = 0;
-      if (!usable(p, &r)) continue;
-      row[i] = ring_from_elevation(*model, std::asin(static_cast<double>(p.z() / r)));
-    }
+    const RingTable table = make_ring_table(*model);
+    for (std::size_t i = 0; i < n; ++i)
+      if (range[i] > 0.f) row[i] = table.ring(scan.points[i].z() / range[i]);
+  } else if (model != nullptr && model->num_rings > 0) {
+    rows = model->num_rings;  // a model without angles: ring_from_elevation gives -1 for every point
   } else {
     // No ring indices and no model: bin the elevations uniformly between the observed extremes.
     // sin(elevation) = z / r is binned instead of the angle: monotonic, nearly linear over a lidar's fan, no asin.
@@ -78,9 +103,8 @@ bool build_range_image(const PointCloud& scan, const LidarModel* model, const Se
     float lo = 2.f, hi = -2.f;
     std::vector<float> el(n, 9.f);
     for (std::size_t i = 0; i < n; ++i) {
-      float r = 0;
-      if (!usable(scan.points[i], &r)) continue;
-      el[i] = scan.points[i].z() / r;
+      if (!(range[i] > 0.f)) continue;
+      el[i] = scan.points[i].z() / range[i];
       lo = std::min(lo, el[i]);
       hi = std::max(hi, el[i]);
     }
@@ -97,25 +121,24 @@ bool build_range_image(const PointCloud& scan, const LidarModel* model, const Se
   const int cols = cfg.azimuth_columns > 0 ? cfg.azimuth_columns : kDefaultColumns;
   img->rows = rows;
   img->cols = cols;
-  img->index.assign(static_cast<std::size_t>(rows * cols), -1);
-  img->range.assign(img->index.size(), 0.f);
+  const std::size_t num_pixels = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols);
+  img->index.assign(num_pixels, -1);
+  img->range.assign(num_pixels, 0.f);
+  img->xyz.resize(num_pixels);  // valid only where index >= 0
   const float col_scale = static_cast<float>(cols / (2.0 * kPi));
   for (std::size_t i = 0; i < n; ++i) {
-    if (row[i] < 0) continue;
+    const float r = range[i];
+    if (row[i] < 0 || r < 0.f) continue;
     const Eigen::Vector3f& p = scan.points[i];
-    float r = 0;
-    if (!usable(p, &r)) continue;  // rows of unusable points stay -1 except with scan rings
     int c = static_cast<int>((fast_atan2(p.y(), p.x()) + static_cast<float>(kPi)) * col_scale);
     c = std::min(std::max(c, 0), cols - 1);
-    const std::size_t k = static_cast<std::size_t>(row[i] * cols + c);
+    const std::size_t k = static_cast<std::size_t>(row[i]) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(c);
     if (img->index[k] < 0 || r < img->range[k]) {  // keep the nearest return per pixel
       img->index[k] = static_cast<int>(i);
       img->range[k] = r;
+      img->xyz[k] = p;
     }
   }
-  img->xyz.assign(img->index.size(), Eigen::Vector3f::Zero());
-  for (std::size_t k = 0; k < img->index.size(); ++k)
-    if (img->index[k] >= 0) img->xyz[k] = scan.points[static_cast<std::size_t>(img->index[k])];
   return true;
 }
 
@@ -141,9 +164,10 @@ void compute_normals(const SegmentationConfig& cfg, RangeImage* img) {
       if (img->index[static_cast<std::size_t>(k)] < 0) continue;
       const Eigen::Vector3f& p = pt(k);
       const float thr = 2.f * neighbor_threshold(cfg, img->range[static_cast<std::size_t>(k)]);
+      const float thr2 = thr * thr;
       auto tangent = [&](int dr, int dc, int step) -> Eigen::Vector3f {
         const int a = neighbor_pixel(*img, r, c, -dr, -dc, step), b = neighbor_pixel(*img, r, c, dr, dc, step);
-        const bool ok_a = a >= 0 && (pt(a) - p).norm() < thr, ok_b = b >= 0 && (pt(b) - p).norm() < thr;
+        const bool ok_a = a >= 0 && (pt(a) - p).squaredNorm() < thr2, ok_b = b >= 0 && (pt(b) - p).squaredNorm() < thr2;
         if (ok_a && ok_b) return pt(b) - pt(a);
         if (ok_b) return pt(b) - p;
         if (ok_a) return p - pt(a);
@@ -168,6 +192,7 @@ void compute_normals(const SegmentationConfig& cfg, RangeImage* img) {
       if (n0.isZero()) continue;
       const Eigen::Vector3f& p = pt(k);
       const float thr = neighbor_threshold(cfg, img->range[static_cast<std::size_t>(k)]);
+      const float thr2 = thr * thr;
       Eigen::Vector3f acc = Eigen::Vector3f::Zero();
       for (int dr = -1; dr <= 1; ++dr) {
         const int rr = r + dr;
@@ -175,7 +200,7 @@ void compute_normals(const SegmentationConfig& cfg, RangeImage* img) {
         for (int dc = -1; dc <= 1; ++dc) {
           const int kk = rr * cols + wrap(c + dc, cols);
           const Eigen::Vector3f& nn = raw[static_cast<std::size_t>(kk)];
-          if (nn.isZero() || nn.dot(n0) < 0.7f || (pt(kk) - p).norm() > thr) continue;
+          if (nn.isZero() || nn.dot(n0) < 0.7f || (pt(kk) - p).squaredNorm() > thr2) continue;
           acc += nn;
         }
       }
@@ -183,6 +208,16 @@ void compute_normals(const SegmentationConfig& cfg, RangeImage* img) {
     }
   }
 }
+
+/// A cluster's pixel indices inside the flat member array.
+struct MemberSpan {
+  const int* first;
+  const int* last;
+  std::size_t size() const { return static_cast<std::size_t>(last - first); }
+  int operator[](std::size_t i) const { return first[i]; }
+  const int* begin() const { return first; }
+  const int* end() const { return last; }
+};
 
 struct Moments {
   int count = 0;
@@ -343,19 +378,22 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
   const float cos_normal = static_cast<float>(std::cos(config.max_normal_angle_deg * kPi / 180.0));
   std::vector<int> label(img.index.size(), -1);
   std::vector<int> stack;
-  std::vector<std::vector<int>> members;  // pixel indices per raw cluster
+  // Members of all raw clusters in one flat array (a cluster's pixels are contiguous, in growing order):
+  // cluster i is flat[start[i] .. start[i + 1]).
+  std::vector<int> flat;
+  flat.reserve(img.index.size() / 2);
+  std::vector<int> start;
   const int dr4[4] = {0, 0, 1, -1}, dc4[4] = {1, -1, 0, 0};
   for (std::size_t seed = 0; seed < img.index.size(); ++seed) {
     if (img.index[seed] < 0 || label[seed] >= 0 || img.normal[seed].isZero()) continue;
-    const int id = static_cast<int>(members.size());
-    members.emplace_back();
-    auto& mem = members.back();
+    const int id = static_cast<int>(start.size());
+    start.push_back(static_cast<int>(flat.size()));
     label[seed] = id;
     stack.assign(1, static_cast<int>(seed));
     while (!stack.empty()) {
       const int k = stack.back();
       stack.pop_back();
-      mem.push_back(k);
+      flat.push_back(k);
       const int r = k / cols, c = k % cols;
       const Eigen::Vector3f& p = img.xyz[static_cast<std::size_t>(k)];
       const Eigen::Vector3f& n = img.normal[static_cast<std::size_t>(k)];
@@ -373,18 +411,19 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
   }
 
   // Largest clusters first (ties by first pixel: deterministic).
+  start.push_back(static_cast<int>(flat.size()));
+  auto cluster_size = [&](int i) { return start[static_cast<std::size_t>(i) + 1] - start[static_cast<std::size_t>(i)]; };
   std::vector<int> order;
-  for (int i = 0; i < static_cast<int>(members.size()); ++i)
-    if (static_cast<int>(members[static_cast<std::size_t>(i)].size()) >= config.min_cluster_points) order.push_back(i);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](int a, int b) { return members[static_cast<std::size_t>(a)].size() > members[static_cast<std::size_t>(b)].size(); });
+  for (int i = 0; i + 1 < static_cast<int>(start.size()); ++i)
+    if (cluster_size(i) >= config.min_cluster_points) order.push_back(i);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return cluster_size(a) > cluster_size(b); });
   if (static_cast<int>(order.size()) > config.max_clusters) order.resize(static_cast<std::size_t>(config.max_clusters));
 
   std::vector<Eigen::Vector3f> pts;
   std::vector<Eigen::Vector2f> pts2;
   std::vector<int> col_lo, col_hi, row_lo, row_hi, cand;
   for (int id : order) {
-    const auto& mem = members[static_cast<std::size_t>(id)];
+    const MemberSpan mem{flat.data() + start[static_cast<std::size_t>(id)], flat.data() + start[static_cast<std::size_t>(id) + 1]};
     pts.clear();
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (int k : mem) {
