@@ -55,9 +55,18 @@ inline float neighbor_threshold(const SegmentationConfig& cfg, float range) {
 struct RingTable {
   float lo = 0, hi = 0;     // sin of the accepted elevation interval
   std::vector<float> mids;  // sin of the midpoints between adjacent rings, ascending
+  // Coarse lookup: lut[b] = number of mids below the start of bin b (minus half a bin, against rounding); the exact
+  // count is reached by stepping forward, usually zero or one step (bins are much finer than the ring spacing).
+  float lut_scale = 0;
+  std::vector<std::uint16_t> lut;
   int ring(float s) const {
     if (!(s >= lo && s <= hi)) return -1;
-    return static_cast<int>(std::lower_bound(mids.begin(), mids.end(), s) - mids.begin());
+    const int nm = static_cast<int>(mids.size());
+    int b = static_cast<int>((s - lo) * lut_scale);
+    b = std::min(std::max(b, 0), static_cast<int>(lut.size()) - 1);
+    int r = lut[static_cast<std::size_t>(b)];
+    while (r < nm && mids[static_cast<std::size_t>(r)] < s) ++r;
+    return r;
   }
 };
 
@@ -70,6 +79,18 @@ RingTable make_ring_table(const LidarModel& model) {
   t.lo = static_cast<float>(std::sin(std::max(-90.0, a.front() - lo_tol) * deg));
   t.hi = static_cast<float>(std::sin(std::min(90.0, a.back() + hi_tol) * deg));
   for (std::size_t i = 0; i + 1 < a.size(); ++i) t.mids.push_back(static_cast<float>(std::sin(0.5 * (a[i] + a[i + 1]) * deg)));
+  constexpr int kBins = 8192;
+  if (t.hi > t.lo) {
+    t.lut_scale = static_cast<float>(kBins / (static_cast<double>(t.hi) - t.lo));
+    t.lut.resize(kBins + 1);
+    for (int b = 0; b <= kBins; ++b) {
+      const double edge = t.lo + (b - 0.5) / static_cast<double>(t.lut_scale);
+      t.lut[static_cast<std::size_t>(b)] = static_cast<std::uint16_t>(
+          std::lower_bound(t.mids.begin(), t.mids.end(), static_cast<float>(edge)) - t.mids.begin());
+    }
+  } else {
+    t.lut.assign(1, 0);  // a single elevation: the forward scan from 0 is exact
+  }
   return t;
 }
 
@@ -77,42 +98,31 @@ bool build_range_image(const PointCloud& scan, const LidarModel* model, const Se
                        std::string* error) {
   const std::size_t n = scan.points.size();
   const float min_r = static_cast<float>(cfg.min_range), max_r = static_cast<float>(cfg.max_range);
-  // Range per point, computed once; -1 marks unusable points (non-finite or outside [min_range, max_range]).
-  std::vector<float> range(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3f& p = scan.points[i];
-    const float r = p.norm();  // NaN/Inf fail the test below
-    range[i] = (r >= min_r && r <= max_r && p.allFinite()) ? r : -1.f;
-  }
-  std::vector<int> row(n, -1);
+  // Ring source: the scan's ring indices, the model's elevations, or (neither) elevations binned between the extremes.
+  enum class RingSource { kScan, kModel, kNoAngles, kBinned } source;
   int rows = 0;
+  RingTable table;
+  float bin_lo = 2.f, bin_scale = 0.f;
   if (scan.has_rings()) {
+    source = RingSource::kScan;
     rows = scan.num_rings;
-    for (std::size_t i = 0; i < n; ++i) row[i] = scan.ring[i] < rows ? static_cast<int>(scan.ring[i]) : -1;
-  } else if (model != nullptr && model->num_rings > 0 && !model->vertical_angles_deg.empty()) {
-    rows = model->num_rings;
-    const RingTable table = make_ring_table(*model);
-    for (std::size_t i = 0; i < n; ++i)
-      if (range[i] > 0.f) row[i] = table.ring(scan.points[i].z() / range[i]);
   } else if (model != nullptr && model->num_rings > 0) {
-    rows = model->num_rings;  // a model without angles: ring_from_elevation gives -1 for every point
+    rows = model->num_rings;
+    source = model->vertical_angles_deg.empty() ? RingSource::kNoAngles : RingSource::kModel;  // no angles: no ring
+    if (source == RingSource::kModel) table = make_ring_table(*model);
   } else {
-    // No ring indices and no model: bin the elevations uniformly between the observed extremes.
     // sin(elevation) = z / r is binned instead of the angle: monotonic, nearly linear over a lidar's fan, no asin.
+    source = RingSource::kBinned;
     rows = cfg.elevation_bins;
-    float lo = 2.f, hi = -2.f;
-    std::vector<float> el(n, 9.f);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!(range[i] > 0.f)) continue;
-      el[i] = scan.points[i].z() / range[i];
-      lo = std::min(lo, el[i]);
-      hi = std::max(hi, el[i]);
+    float hi = -2.f;
+    for (const Eigen::Vector3f& p : scan.points) {
+      const float r = p.norm();
+      if (!(r >= min_r && r <= max_r) || !p.allFinite()) continue;
+      const float e = p.z() / r;
+      bin_lo = std::min(bin_lo, e);
+      hi = std::max(hi, e);
     }
-    if (hi > lo) {
-      const float scale = static_cast<float>(rows) / (hi - lo);
-      for (std::size_t i = 0; i < n; ++i)
-        if (el[i] < 5.f) row[i] = std::min(rows - 1, static_cast<int>((el[i] - lo) * scale));
-    }
+    if (hi > bin_lo) bin_scale = static_cast<float>(rows) / (hi - bin_lo);
   }
   if (rows <= 0) {
     *error = "no rings: scan has no ring indices and elevations could not be binned";
@@ -125,86 +135,135 @@ bool build_range_image(const PointCloud& scan, const LidarModel* model, const Se
   img->index.assign(num_pixels, -1);
   img->range.assign(num_pixels, 0.f);
   img->xyz.resize(num_pixels);  // valid only where index >= 0
+  if (source == RingSource::kNoAngles || (source == RingSource::kBinned && !(bin_scale > 0.f))) return true;
   const float col_scale = static_cast<float>(cols / (2.0 * kPi));
+  int* const index = img->index.data();
+  float* const range = img->range.data();
+  Eigen::Vector3f* const xyz = img->xyz.data();
+  // One pass: range (once per point), ring, column, nearest return per pixel.
   for (std::size_t i = 0; i < n; ++i) {
-    const float r = range[i];
-    if (row[i] < 0 || r < 0.f) continue;
     const Eigen::Vector3f& p = scan.points[i];
+    const float r = p.norm();  // NaN/Inf fail the range test
+    if (!(r >= min_r && r <= max_r) || !p.allFinite()) continue;
+    int row = -1;
+    switch (source) {
+      case RingSource::kScan:
+        row = scan.ring[i] < rows ? static_cast<int>(scan.ring[i]) : -1;
+        break;
+      case RingSource::kModel:
+        row = table.ring(p.z() / r);
+        break;
+      default:
+        row = std::min(rows - 1, static_cast<int>((p.z() / r - bin_lo) * bin_scale));
+        break;
+    }
+    if (row < 0) continue;
     int c = static_cast<int>((fast_atan2(p.y(), p.x()) + static_cast<float>(kPi)) * col_scale);
     c = std::min(std::max(c, 0), cols - 1);
-    const std::size_t k = static_cast<std::size_t>(row[i]) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(c);
-    if (img->index[k] < 0 || r < img->range[k]) {  // keep the nearest return per pixel
-      img->index[k] = static_cast<int>(i);
-      img->range[k] = r;
-      img->xyz[k] = p;
+    const std::size_t k = static_cast<std::size_t>(row) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(c);
+    if (index[k] < 0 || r < range[k]) {  // keep the nearest return per pixel
+      index[k] = static_cast<int>(i);
+      range[k] = r;
+      xyz[k] = p;
     }
   }
   return true;
 }
 
-// Nearest valid pixel in one direction (up to `max_step` pixels away, skipping holes), -1 if none.
-inline int neighbor_pixel(const RangeImage& img, int r, int c, int dr, int dc, int max_step) {
-  for (int s = 1; s <= max_step; ++s) {
-    const int rr = r + dr * s;
-    if (rr < 0 || rr >= img.rows) return -1;
-    const int cc = wrap(c + dc * s, img.cols);
-    const int k = rr * img.cols + cc;
-    if (img.index[static_cast<std::size_t>(k)] >= 0) return k;
-  }
-  return -1;
-}
-
 void compute_normals(const SegmentationConfig& cfg, RangeImage* img) {
   const int rows = img->rows, cols = img->cols;
-  std::vector<Eigen::Vector3f> raw(img->index.size(), Eigen::Vector3f::Zero());
-  auto pt = [&](int k) -> const Eigen::Vector3f& { return img->xyz[static_cast<std::size_t>(k)]; };
+  const std::size_t num_pixels = img->index.size();
+  const std::vector<Eigen::Vector3f>& xyz = img->xyz;
+  const std::vector<float>& range = img->range;
+  std::vector<std::uint8_t> valid(num_pixels);
+  for (std::size_t k = 0; k < num_pixels; ++k) valid[k] = img->index[k] >= 0 ? 1 : 0;
+  const double min_thr = cfg.max_neighbor_distance, thr_scale = cfg.distance_range_scale;
+  auto threshold = [&](std::size_t k) { return static_cast<float>(std::max(min_thr, thr_scale * range[k])); };  // neighbor_threshold
+  std::vector<Eigen::Vector3f> raw(num_pixels);
+  std::vector<std::uint8_t> has_raw(num_pixels, 0);  // raw[k] is set (a unit normal)
+  constexpr int kHorizontalSteps = 2 * kNormalColumnStep, kVerticalSteps = 2;
   for (int r = 0; r < rows; ++r) {
+    const std::size_t base = static_cast<std::size_t>(r) * static_cast<std::size_t>(cols);
     for (int c = 0; c < cols; ++c) {
-      const int k = r * cols + c;
-      if (img->index[static_cast<std::size_t>(k)] < 0) continue;
-      const Eigen::Vector3f& p = pt(k);
-      const float thr = 2.f * neighbor_threshold(cfg, img->range[static_cast<std::size_t>(k)]);
+      const std::size_t k = base + static_cast<std::size_t>(c);
+      if (!valid[k]) continue;
+      const Eigen::Vector3f& p = xyz[k];
+      const float thr = 2.f * threshold(k);
       const float thr2 = thr * thr;
-      auto tangent = [&](int dr, int dc, int step) -> Eigen::Vector3f {
-        const int a = neighbor_pixel(*img, r, c, -dr, -dc, step), b = neighbor_pixel(*img, r, c, dr, dc, step);
-        const bool ok_a = a >= 0 && (pt(a) - p).squaredNorm() < thr2, ok_b = b >= 0 && (pt(b) - p).squaredNorm() < thr2;
-        if (ok_a && ok_b) return pt(b) - pt(a);
-        if (ok_b) return pt(b) - p;
-        if (ok_a) return p - pt(a);
+      // Nearest valid pixel on each side (skipping holes, as neighbor_pixel), kept when within the threshold.
+      auto tangent = [&](std::ptrdiff_t a, std::ptrdiff_t b) -> Eigen::Vector3f {
+        const bool ok_a = a >= 0 && (xyz[static_cast<std::size_t>(a)] - p).squaredNorm() < thr2;
+        const bool ok_b = b >= 0 && (xyz[static_cast<std::size_t>(b)] - p).squaredNorm() < thr2;
+        if (ok_a && ok_b) return xyz[static_cast<std::size_t>(b)] - xyz[static_cast<std::size_t>(a)];
+        if (ok_b) return xyz[static_cast<std::size_t>(b)] - p;
+        if (ok_a) return p - xyz[static_cast<std::size_t>(a)];
         return Eigen::Vector3f::Zero();
       };
-      const Eigen::Vector3f th = tangent(0, 1, 2 * kNormalColumnStep);
-      const Eigen::Vector3f tv = tangent(1, 0, 2);
+      std::ptrdiff_t left = -1, right = -1, down = -1, up = -1;
+      for (int st = 1; st <= kHorizontalSteps; ++st) {
+        const std::size_t kk = base + static_cast<std::size_t>(wrap(c - st, cols));
+        if (valid[kk]) {
+          left = static_cast<std::ptrdiff_t>(kk);
+          break;
+        }
+      }
+      for (int st = 1; st <= kHorizontalSteps; ++st) {
+        const std::size_t kk = base + static_cast<std::size_t>(wrap(c + st, cols));
+        if (valid[kk]) {
+          right = static_cast<std::ptrdiff_t>(kk);
+          break;
+        }
+      }
+      for (int st = 1; st <= kVerticalSteps && r - st >= 0; ++st) {
+        const std::size_t kk = k - static_cast<std::size_t>(st) * static_cast<std::size_t>(cols);
+        if (valid[kk]) {
+          down = static_cast<std::ptrdiff_t>(kk);
+          break;
+        }
+      }
+      for (int st = 1; st <= kVerticalSteps && r + st < rows; ++st) {
+        const std::size_t kk = k + static_cast<std::size_t>(st) * static_cast<std::size_t>(cols);
+        if (valid[kk]) {
+          up = static_cast<std::ptrdiff_t>(kk);
+          break;
+        }
+      }
+      const Eigen::Vector3f th = tangent(left, right);
+      const Eigen::Vector3f tv = tangent(down, up);
       Eigen::Vector3f nrm = th.cross(tv);
-      const float len = nrm.norm();
-      if (len <= 1e-9f || len < 1e-3f * th.norm() * tv.norm()) continue;
-      nrm /= len;
+      const float len2 = nrm.squaredNorm();
+      // |n| <= 1e-9 or |n| < 1e-3 |th| |tv| (nearly parallel tangents), in squares: one sqrt instead of three.
+      if (len2 <= 1e-18f || len2 < 1e-6f * th.squaredNorm() * tv.squaredNorm()) continue;
+      nrm /= std::sqrt(len2);
       if (nrm.dot(p) > 0) nrm = -nrm;  // face the sensor
-      raw[static_cast<std::size_t>(k)] = nrm;
+      raw[k] = nrm;
+      has_raw[k] = 1;
     }
   }
   // 3x3 smoothing of the normals over pixels of the same surface (reduces range-noise wobble).
-  img->normal.assign(raw.size(), Eigen::Vector3f::Zero());
+  img->normal.assign(num_pixels, Eigen::Vector3f::Zero());
   for (int r = 0; r < rows; ++r) {
+    const int r_lo = std::max(r - 1, 0), r_hi = std::min(r + 1, rows - 1);
     for (int c = 0; c < cols; ++c) {
-      const int k = r * cols + c;
-      const Eigen::Vector3f& n0 = raw[static_cast<std::size_t>(k)];
-      if (n0.isZero()) continue;
-      const Eigen::Vector3f& p = pt(k);
-      const float thr = neighbor_threshold(cfg, img->range[static_cast<std::size_t>(k)]);
+      const std::size_t k = static_cast<std::size_t>(r) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(c);
+      if (!has_raw[k]) continue;
+      const Eigen::Vector3f& n0 = raw[k];
+      const Eigen::Vector3f& p = xyz[k];
+      const float thr = threshold(k);
       const float thr2 = thr * thr;
+      const int cm = wrap(c - 1, cols), cp = wrap(c + 1, cols);
       Eigen::Vector3f acc = Eigen::Vector3f::Zero();
-      for (int dr = -1; dr <= 1; ++dr) {
-        const int rr = r + dr;
-        if (rr < 0 || rr >= rows) continue;
-        for (int dc = -1; dc <= 1; ++dc) {
-          const int kk = rr * cols + wrap(c + dc, cols);
-          const Eigen::Vector3f& nn = raw[static_cast<std::size_t>(kk)];
-          if (nn.isZero() || nn.dot(n0) < 0.7f || (pt(kk) - p).squaredNorm() > thr2) continue;
+      for (int rr = r_lo; rr <= r_hi; ++rr) {
+        const std::size_t rb = static_cast<std::size_t>(rr) * static_cast<std::size_t>(cols);
+        for (const int cc : {cm, c, cp}) {
+          const std::size_t kk = rb + static_cast<std::size_t>(cc);
+          if (!has_raw[kk]) continue;
+          const Eigen::Vector3f& nn = raw[kk];
+          if (nn.dot(n0) < 0.7f || (xyz[kk] - p).squaredNorm() > thr2) continue;
           acc += nn;
         }
       }
-      img->normal[static_cast<std::size_t>(k)] = acc.normalized();
+      img->normal[k] = acc.normalized();
     }
   }
 }
@@ -377,35 +436,65 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
   const int cols = img.cols;
   const float cos_normal = static_cast<float>(std::cos(config.max_normal_angle_deg * kPi / 180.0));
   std::vector<int> label(img.index.size(), -1);
-  std::vector<int> stack;
+  // Pixels that can join a cluster: valid with a known normal (1 byte each instead of testing the float normals).
+  std::vector<std::uint8_t> growable(img.index.size(), 0);
+  for (std::size_t k = 0; k < img.index.size(); ++k) growable[k] = (img.index[k] >= 0 && !img.normal[k].isZero()) ? 1 : 0;
+  struct Pixel {
+    int k, r, c;  // index, row, column (no division per popped pixel)
+  };
+  std::vector<Pixel> stack;
   // Members of all raw clusters in one flat array (a cluster's pixels are contiguous, in growing order):
   // cluster i is flat[start[i] .. start[i + 1]).
   std::vector<int> flat;
-  flat.reserve(img.index.size() / 2);
+  flat.reserve(img.index.size());
   std::vector<int> start;
-  const int dr4[4] = {0, 0, 1, -1}, dc4[4] = {1, -1, 0, 0};
-  for (std::size_t seed = 0; seed < img.index.size(); ++seed) {
-    if (img.index[seed] < 0 || label[seed] >= 0 || img.normal[seed].isZero()) continue;
-    const int id = static_cast<int>(start.size());
-    start.push_back(static_cast<int>(flat.size()));
-    label[seed] = id;
-    stack.assign(1, static_cast<int>(seed));
-    while (!stack.empty()) {
-      const int k = stack.back();
-      stack.pop_back();
-      flat.push_back(k);
-      const int r = k / cols, c = k % cols;
-      const Eigen::Vector3f& p = img.xyz[static_cast<std::size_t>(k)];
-      const Eigen::Vector3f& n = img.normal[static_cast<std::size_t>(k)];
-      const float thr = neighbor_threshold(config, img.range[static_cast<std::size_t>(k)]);
-      for (int d = 0; d < 4; ++d) {
-        const int kk = neighbor_pixel(img, r, c, dr4[d], dc4[d], 2);
-        if (kk < 0 || label[static_cast<std::size_t>(kk)] >= 0) continue;
-        const Eigen::Vector3f& nn = img.normal[static_cast<std::size_t>(kk)];
-        if (nn.isZero() || nn.dot(n) < cos_normal) continue;                                                  // comparator 2
-        if ((img.xyz[static_cast<std::size_t>(kk)] - p).squaredNorm() > thr * thr) continue;  // comparator 1
-        label[static_cast<std::size_t>(kk)] = id;
-        stack.push_back(kk);
+  const int rows = img.rows;
+  for (int seed_r = 0; seed_r < rows; ++seed_r) {
+    for (int seed_c = 0; seed_c < cols; ++seed_c) {
+      const std::size_t seed = static_cast<std::size_t>(seed_r) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(seed_c);
+      if (!growable[seed] || label[seed] >= 0) continue;
+      const int id = static_cast<int>(start.size());
+      start.push_back(static_cast<int>(flat.size()));
+      label[seed] = id;
+      stack.assign(1, Pixel{static_cast<int>(seed), seed_r, seed_c});
+      while (!stack.empty()) {
+        const Pixel px = stack.back();
+        stack.pop_back();
+        flat.push_back(px.k);
+        const Eigen::Vector3f& p = img.xyz[static_cast<std::size_t>(px.k)];
+        const Eigen::Vector3f& n = img.normal[static_cast<std::size_t>(px.k)];
+        const float thr = neighbor_threshold(config, img.range[static_cast<std::size_t>(px.k)]);
+        const float thr2 = thr * thr;
+        // Same neighbour order as before (right, left, down, up): the growing order, and so every sum, is unchanged.
+        auto visit = [&](int rr, int cc) {
+          const int kk = rr * cols + cc;
+          const auto skk = static_cast<std::size_t>(kk);
+          if (label[skk] >= 0 || !growable[skk]) return;
+          if (img.normal[skk].dot(n) < cos_normal) return;           // comparator 2
+          if ((img.xyz[skk] - p).squaredNorm() > thr2) return;       // comparator 1
+          label[skk] = id;
+          stack.push_back(Pixel{kk, rr, cc});
+        };
+        // Nearest valid pixel within 2 steps in each direction (holes of one pixel are bridged).
+        const int base = px.r * cols;
+        {
+          const int c1 = wrap(px.c + 1, cols), c2 = wrap(px.c + 2, cols);
+          if (img.index[static_cast<std::size_t>(base + c1)] >= 0) visit(px.r, c1);
+          else if (img.index[static_cast<std::size_t>(base + c2)] >= 0) visit(px.r, c2);
+        }
+        {
+          const int c1 = wrap(px.c - 1, cols), c2 = wrap(px.c - 2, cols);
+          if (img.index[static_cast<std::size_t>(base + c1)] >= 0) visit(px.r, c1);
+          else if (img.index[static_cast<std::size_t>(base + c2)] >= 0) visit(px.r, c2);
+        }
+        if (px.r + 1 < rows) {
+          if (img.index[static_cast<std::size_t>(base + cols + px.c)] >= 0) visit(px.r + 1, px.c);
+          else if (px.r + 2 < rows && img.index[static_cast<std::size_t>(base + 2 * cols + px.c)] >= 0) visit(px.r + 2, px.c);
+        }
+        if (px.r >= 1) {
+          if (img.index[static_cast<std::size_t>(base - cols + px.c)] >= 0) visit(px.r - 1, px.c);
+          else if (px.r >= 2 && img.index[static_cast<std::size_t>(base - 2 * cols + px.c)] >= 0) visit(px.r - 2, px.c);
+        }
       }
     }
   }
@@ -421,7 +510,7 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
 
   std::vector<Eigen::Vector3f> pts;
   std::vector<Eigen::Vector2f> pts2;
-  std::vector<int> col_lo, col_hi, row_lo, row_hi, cand;
+  std::vector<int> col_lo, col_hi, row_lo, row_hi, cand, mem_row, mem_col;
   for (int id : order) {
     const MemberSpan mem{flat.data() + start[static_cast<std::size_t>(id)], flat.data() + start[static_cast<std::size_t>(id) + 1]};
     pts.clear();
@@ -456,11 +545,17 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
       col_hi.assign(static_cast<std::size_t>(cols), -1);
       row_lo.assign(static_cast<std::size_t>(img.rows), -1);
       row_hi.assign(static_cast<std::size_t>(img.rows), -1);
+      mem_row.resize(mem.size());
+      mem_col.resize(mem.size());
       for (std::size_t i = 0; i < mem.size(); ++i) {
-        const int k = mem[i], r = k / cols, c = k % cols;
+        mem_row[i] = mem[i] / cols;
+        mem_col[i] = mem[i] - mem_row[i] * cols;
+      }
+      for (std::size_t i = 0; i < mem.size(); ++i) {
+        const int r = mem_row[i], c = mem_col[i];
         const int mi = static_cast<int>(i);
-        auto row_of = [&](int m) { return mem[static_cast<std::size_t>(m)] / cols; };
-        auto col_of = [&](int m) { return mem[static_cast<std::size_t>(m)] % cols; };
+        auto row_of = [&](int m) { return mem_row[static_cast<std::size_t>(m)]; };
+        auto col_of = [&](int m) { return mem_col[static_cast<std::size_t>(m)]; };
         int& cl_lo = col_lo[static_cast<std::size_t>(c)];
         int& cl_hi = col_hi[static_cast<std::size_t>(c)];
         if (cl_lo < 0 || r < row_of(cl_lo)) cl_lo = mi;
