@@ -173,7 +173,7 @@ TEST_CASE("injected odometry drift is deterministic and grows with distance") {
   CHECK(a.residuals[1] > cfg.residual_base);
 }
 
-#include "loopd/eval/trajectory_io.hpp"
+#include "loopd/core/trajectory_io.hpp"
 #include "support/data_dir.hpp"
 
 TEST_CASE("loop ground truth on the real KITTI poses matches the counts in the data README") {

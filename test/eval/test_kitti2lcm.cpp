@@ -9,7 +9,7 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "loopd/eval/trajectory_io.hpp"
+#include "loopd/core/trajectory_io.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "support/data_dir.hpp"
 

@@ -9,7 +9,7 @@
 #include "lcm_log.hpp"
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/eval/odometry_drift.hpp"
-#include "loopd/eval/trajectory_io.hpp"
+#include "loopd/core/trajectory_io.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "message_convert.hpp"
 #include "tool_output.hpp"

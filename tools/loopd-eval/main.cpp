@@ -5,7 +5,7 @@
 
 #include "eval_log.hpp"
 #include "loopd/eval/evaluation.hpp"
-#include "loopd/eval/trajectory_io.hpp"
+#include "loopd/core/trajectory_io.hpp"
 #include "plots.hpp"
 #include "tool_output.hpp"
 
