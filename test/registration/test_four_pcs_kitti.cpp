@@ -7,6 +7,7 @@
 
 #include "loopd/core/cloud_ops.hpp"
 #include "loopd/core/pose.hpp"
+#include "loopd/core/trajectory_io.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/registration/scan_registration.hpp"
 #include "support/data_dir.hpp"
@@ -15,28 +16,6 @@ using namespace loopd;
 
 namespace {
 constexpr double kDeg = M_PI / 180.0;
-
-bool read_row_major_3x4(std::istream& in, Eigen::Isometry3d* T) {
-  *T = Eigen::Isometry3d::Identity();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c)
-      if (!(in >> T->matrix()(r, c))) return false;
-  return true;
-}
-
-// T_world_velo of KITTI frame `index`: Tr^-1 * P_cam * Tr (data README).
-bool kitti_velo_pose(const std::string& poses_file, const std::string& calib_file, int index, Eigen::Isometry3d* out) {
-  std::ifstream calib(calib_file);
-  std::string tag;
-  Eigen::Isometry3d Tr;
-  if (!(calib >> tag) || !read_row_major_3x4(calib, &Tr)) return false;
-  std::ifstream poses(poses_file);
-  Eigen::Isometry3d P;
-  for (int i = 0; i <= index; ++i)
-    if (!read_row_major_3x4(poses, &P)) return false;
-  *out = Tr.inverse() * P * Tr;
-  return true;
-}
 
 PointCloud kitti_scan(int index) {
   char name[64];
@@ -57,14 +36,16 @@ TEST_CASE("KITTI 00 pairs are aligned within 5 deg and 0.5 m + 20% of the distan
   LOOPD_REQUIRE_DATA(poses_file, "kitti/poses/00.txt");
   LOOPD_REQUIRE_DATA(calib_file, "kitti/calib/Tr_velo_to_cam_00-02.txt");
   LOOPD_REQUIRE_DATA(first_scan, "kitti/seq00/000000.bin");
+  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo
+  std::string pose_err;
+  REQUIRE(read_kitti_lidar_poses(poses_file, calib_file, &velo_poses, &pose_err));
   // The scans are not motion-compensated: scan matching underestimates the motion by ~17% (data README), hence the
   // distance-proportional translation tolerance (measured: 0.25 m at 0.86 m, 0.7 m at 4.3 m, 1.2 m at 12.9 m).
   const ScanRegistrationConfig cfg;
   for (const KittiPair p : {KittiPair{1, 0}, KittiPair{2, 1}, KittiPair{3, 2}, KittiPair{4, 3}, KittiPair{5, 4}, KittiPair{5, 0}, KittiPair{95, 94},
                             KittiPair{199, 198}, KittiPair{15, 0}}) {
-    Eigen::Isometry3d Tq, Tm;
-    REQUIRE(kitti_velo_pose(poses_file, calib_file, p.query, &Tq));
-    REQUIRE(kitti_velo_pose(poses_file, calib_file, p.match, &Tm));
+    const Eigen::Isometry3d Tq = velo_poses.at(static_cast<std::size_t>(p.query));
+    const Eigen::Isometry3d Tm = velo_poses.at(static_cast<std::size_t>(p.match));
     const Eigen::Isometry3d truth = Tm.inverse() * Tq;
     const PointCloud q = kitti_scan(p.query), m = kitti_scan(p.match);
     REQUIRE(q.size() > 100000);
@@ -84,9 +65,10 @@ TEST_CASE("KITTI 95 -> 94 is found from any heading (query turned about its z ax
   LOOPD_REQUIRE_DATA(poses_file, "kitti/poses/00.txt");
   LOOPD_REQUIRE_DATA(calib_file, "kitti/calib/Tr_velo_to_cam_00-02.txt");
   LOOPD_REQUIRE_DATA(scan, "kitti/seq00/000095.bin");
-  Eigen::Isometry3d Tq, Tm;
-  REQUIRE(kitti_velo_pose(poses_file, calib_file, 95, &Tq));
-  REQUIRE(kitti_velo_pose(poses_file, calib_file, 94, &Tm));
+  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo
+  std::string pose_err;
+  REQUIRE(read_kitti_lidar_poses(poses_file, calib_file, &velo_poses, &pose_err));
+  const Eigen::Isometry3d Tq = velo_poses.at(95), Tm = velo_poses.at(94);
   const ScanRegistrationConfig cfg;
   const RegistrationInput match = prepare_registration_input(kitti_scan(94), nullptr, cfg);
   const PointCloud query = kitti_scan(95);

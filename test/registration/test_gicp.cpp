@@ -9,6 +9,7 @@
 
 #include "loopd/core/cloud_ops.hpp"
 #include "loopd/core/pose.hpp"
+#include "loopd/core/trajectory_io.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/registration/gicp.hpp"
 #include "support/data_dir.hpp"
@@ -165,35 +166,12 @@ TEST_CASE("GICP rejects degenerate input with a reason and never crashes") {
   }
 }
 
-namespace {
-/// T_world_velo of KITTI frame `index` from the camera ground truth: Tr^-1 * P_cam * Tr.
-bool kitti_velo_pose(const std::string& poses_file, const std::string& calib_file, int index, Eigen::Isometry3d* out) {
-  auto read12 = [](std::istream& in, Eigen::Isometry3d* T) {
-    T->setIdentity();
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 4; ++c)
-        if (!(in >> T->matrix()(r, c))) return false;
-    return true;
-  };
-  std::ifstream calib(calib_file);
-  std::string tag;
-  Eigen::Isometry3d Tr;
-  if (!(calib >> tag) || !read12(calib, &Tr)) return false;
-  std::ifstream poses(poses_file);
-  std::string line;
-  for (int i = 0; i <= index; ++i)
-    if (!std::getline(poses, line)) return false;
-  std::istringstream ls(line);
-  Eigen::Isometry3d P;
-  if (!read12(ls, &P)) return false;
-  *out = Tr.inverse() * P * Tr;
-  return true;
-}
-}  // namespace
-
 TEST_CASE("GICP aligns consecutive real KITTI scans to the ground truth (seq 00)") {
   LOOPD_REQUIRE_DATA(poses_file, "kitti/poses/00.txt");
   LOOPD_REQUIRE_DATA(calib_file, "kitti/calib/Tr_velo_to_cam_00-02.txt");
+  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo
+  std::string pose_err;
+  REQUIRE(read_kitti_lidar_poses(poses_file, calib_file, &velo_poses, &pose_err));
   for (const auto& pair : {std::pair<int, int>{94, 95}, std::pair<int, int>{198, 199}}) {
     char na[64], nb[64];
     std::snprintf(na, sizeof na, "kitti/seq00/%06d.bin", pair.first);
@@ -206,9 +184,8 @@ TEST_CASE("GICP aligns consecutive real KITTI scans to the ground truth (seq 00)
     REQUIRE(read_kitti_bin(fb, &b, &err));
     a = voxel_downsample(crop_range(remove_non_finite(a), 2.0, 80.0), 0.6);
     b = voxel_downsample(crop_range(remove_non_finite(b), 2.0, 80.0), 0.6);
-    Eigen::Isometry3d Ta, Tb;
-    REQUIRE(kitti_velo_pose(poses_file, calib_file, pair.first, &Ta));
-    REQUIRE(kitti_velo_pose(poses_file, calib_file, pair.second, &Tb));
+    const Eigen::Isometry3d Ta = velo_poses.at(static_cast<std::size_t>(pair.first));
+    const Eigen::Isometry3d Tb = velo_poses.at(static_cast<std::size_t>(pair.second));
     const Eigen::Isometry3d truth = Ta.inverse() * Tb;  // maps frame-b points into frame a
     // Odometry-like start: identity (the car moved ~1 m).
     const GicpResult r = align_gicp(b.points, a.points, Eigen::Isometry3d::Identity(), GicpConfig{});

@@ -11,6 +11,7 @@
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/pose.hpp"
 #include "loopd/core/stopwatch.hpp"
+#include "loopd/core/trajectory_io.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
@@ -213,28 +214,6 @@ TEST_CASE("degenerate and hostile input is rejected with a reason, never a crash
 }
 
 namespace {
-bool kitti_velo_pose(const std::string& poses_file, const std::string& calib_file, int index, Eigen::Isometry3d* out) {
-  auto read12 = [](std::istream& in, Eigen::Isometry3d* T) {
-    T->setIdentity();
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 4; ++c)
-        if (!(in >> T->matrix()(r, c))) return false;
-    return true;
-  };
-  std::ifstream calib(calib_file);
-  std::string tag;
-  Eigen::Isometry3d Tr;
-  if (!(calib >> tag) || !read12(calib, &Tr)) return false;
-  std::ifstream poses(poses_file);
-  std::string line;
-  for (int i = 0; i <= index; ++i)
-    if (!std::getline(poses, line)) return false;
-  std::istringstream ls(line);
-  Eigen::Isometry3d P;
-  if (!read12(ls, &P)) return false;
-  *out = Tr.inverse() * P * Tr;  // T_world_velo
-  return true;
-}
 
 PreparedScan prepare_kitti(const std::string& file) {
   static const LidarModel model = lidar_model_hdl64();
@@ -253,13 +232,15 @@ TEST_CASE("real KITTI seq 00: same place accepted within 0.2 m / 1 deg of ground
   LOOPD_REQUIRE_DATA(f95, "kitti/seq00/000095.bin");
   LOOPD_REQUIRE_DATA(f198, "kitti/seq00/000198.bin");
   LOOPD_REQUIRE_DATA(f199, "kitti/seq00/000199.bin");
+  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo
+  std::string pose_err;
+  REQUIRE(read_kitti_lidar_poses(poses_file, calib_file, &velo_poses, &pose_err));
   const PreparedScan s0 = prepare_kitti(f0), s94 = prepare_kitti(f94), s95 = prepare_kitti(f95), s198 = prepare_kitti(f198), s199 = prepare_kitti(f199);
   CHECK(s94.bytes() <= 125 * 1024);
   // Same place (consecutive frames; the README checks these two against the ground truth to mm).
   for (const auto& [q, m, qi, mi] : {std::tuple<const PreparedScan*, const PreparedScan*, int, int>{&s95, &s94, 95, 94}, {&s199, &s198, 199, 198}}) {
-    Eigen::Isometry3d Tq, Tm;
-    REQUIRE(kitti_velo_pose(poses_file, calib_file, qi, &Tq));
-    REQUIRE(kitti_velo_pose(poses_file, calib_file, mi, &Tm));
+    const Eigen::Isometry3d Tq = velo_poses.at(static_cast<std::size_t>(qi));
+    const Eigen::Isometry3d Tm = velo_poses.at(static_cast<std::size_t>(mi));
     const Eigen::Isometry3d truth = Tm.inverse() * Tq;
     const VerifyResult r = verify(*q, *m, VerifyConfig{});
     INFO(qi << "->" << mi << " stage " << to_string(r.stage) << " reason " << r.reason << " t " << r.T_match_query.translation().transpose() << " truth "

@@ -3,6 +3,7 @@
 // offset, moved parked cars) prepared like keyframes (prepare_scan), started from the ground truth perturbed by up to
 // 0.5 m / 5 deg (a 4PCS-sized error); plus consecutive real KITTI scans when the data folder is present.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <ctime>
 #include <cstdlib>
@@ -15,6 +16,7 @@
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/pose.hpp"
 #include "loopd/core/stopwatch.hpp"
+#include "loopd/core/trajectory_io.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/registration/gicp.hpp"
 #include "loopd/sim/lidar_sim.hpp"
@@ -43,29 +45,6 @@ double cpu_ms() {
 
 double rot_err_deg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return std::abs(Eigen::AngleAxisd(Eigen::Matrix3d(a.linear().transpose() * b.linear())).angle()) * 180.0 / M_PI;
-}
-
-bool kitti_velo_pose(const std::string& dir, int index, Eigen::Isometry3d* out) {
-  auto read12 = [](std::istream& in, Eigen::Isometry3d* T) {
-    T->setIdentity();
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 4; ++c)
-        if (!(in >> T->matrix()(r, c))) return false;
-    return true;
-  };
-  std::ifstream calib(dir + "/calib/Tr_velo_to_cam_00-02.txt");
-  std::string tag;
-  Eigen::Isometry3d Tr;
-  if (!(calib >> tag) || !read12(calib, &Tr)) return false;
-  std::ifstream poses(dir + "/poses/00.txt");
-  std::string line;
-  for (int i = 0; i <= index; ++i)
-    if (!std::getline(poses, line)) return false;
-  std::istringstream ls(line);
-  Eigen::Isometry3d P;
-  if (!read12(ls, &P)) return false;
-  *out = Tr.inverse() * P * Tr;
-  return true;
 }
 
 }  // namespace
@@ -140,16 +119,20 @@ int run_bench_gicp(int argc, char** argv) {
     prog.update(i + 1);
   }
   prog.finish();
+  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo of KITTI 00; empty without the data folder
+  std::string pose_err;
+  if (!read_kitti_lidar_poses(kitti_dir + "/poses/00.txt", kitti_dir + "/calib/Tr_velo_to_cam_00-02.txt", &velo_poses, &pose_err))
+    velo_poses.clear();
   for (const auto& fr : {std::pair<int, int>{94, 95}, std::pair<int, int>{198, 199}, std::pair<int, int>{0, 1}, std::pair<int, int>{3, 4}}) {
     char a[32], b[32];
     std::snprintf(a, sizeof a, "/seq00/%06d.bin", fr.first);
     std::snprintf(b, sizeof b, "/seq00/%06d.bin", fr.second);
     PointCloud ca, cb;
     std::string err;
-    Eigen::Isometry3d Ta, Tb;
-    if (!read_kitti_bin(kitti_dir + a, &ca, &err) || !read_kitti_bin(kitti_dir + b, &cb, &err) || !kitti_velo_pose(kitti_dir, fr.first, &Ta) ||
-        !kitti_velo_pose(kitti_dir, fr.second, &Tb))
+    if (static_cast<std::size_t>(std::max(fr.first, fr.second)) >= velo_poses.size() || !read_kitti_bin(kitti_dir + a, &ca, &err) ||
+        !read_kitti_bin(kitti_dir + b, &cb, &err))
       continue;
+    const Eigen::Isometry3d Ta = velo_poses[static_cast<std::size_t>(fr.first)], Tb = velo_poses[static_cast<std::size_t>(fr.second)];
     Pair p;
     p.name = "kitti 00 " + std::to_string(fr.second) + "->" + std::to_string(fr.first);
     p.source = prepare_scan(cb, &model, prep);

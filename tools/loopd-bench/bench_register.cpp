@@ -13,6 +13,7 @@
 // PCL seeds std::rand with time() inside align(), so its figures vary run to run (no seed can be fixed). loopd's
 // time is align_four_pcs on prepared scans (segmentation is cached per keyframe); preparation is reported apart.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <ctime>
@@ -23,6 +24,7 @@
 #include "loopd/core/cloud_ops.hpp"
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/pose.hpp"
+#include "loopd/core/trajectory_io.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/registration/scan_registration.hpp"
 #include "loopd/sim/lidar_sim.hpp"
@@ -65,29 +67,6 @@ void record(MethodStats* s, const Eigen::Isometry3d& estimate, const Eigen::Isom
   s->trans_err.push_back(trans);
 }
 
-bool kitti_velo_pose(const std::string& dir, int index, Eigen::Isometry3d* out) {
-  auto read12 = [](std::istream& in, Eigen::Isometry3d* T) {
-    T->setIdentity();
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 4; ++c)
-        if (!(in >> T->matrix()(r, c))) return false;
-    return true;
-  };
-  std::ifstream calib(dir + "/calib/Tr_velo_to_cam_00-02.txt");
-  std::string tag;
-  Eigen::Isometry3d Tr;
-  if (!(calib >> tag) || !read12(calib, &Tr)) return false;
-  std::ifstream poses(dir + "/poses/00.txt");
-  std::string line;
-  for (int i = 0; i <= index; ++i)
-    if (!std::getline(poses, line)) return false;
-  std::istringstream ls(line);
-  Eigen::Isometry3d P;
-  if (!read12(ls, &P)) return false;
-  *out = Tr.inverse() * P * Tr;  // T_world_velo (data README)
-  return true;
-}
-
 std::vector<Pair> simulated_pairs(int n) {
   std::vector<Pair> pairs;
   const Town town = make_town(1);
@@ -112,10 +91,13 @@ std::vector<Pair> kitti_pairs(const std::string& dir) {
   std::vector<Pair> pairs;
   const int ids[][2] = {{1, 0}, {3, 2}, {95, 94}, {199, 198}};
   const double yaws[] = {0, 90, 180};
+  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo (data README)
+  std::string pose_err;
+  if (!read_kitti_lidar_poses(dir + "/poses/00.txt", dir + "/calib/Tr_velo_to_cam_00-02.txt", &velo_poses, &pose_err)) return pairs;
   int k = 0;
   for (const auto& id : ids) {
-    Eigen::Isometry3d Tq, Tm;
-    if (!kitti_velo_pose(dir, id[0], &Tq) || !kitti_velo_pose(dir, id[1], &Tm)) continue;
+    if (static_cast<std::size_t>(std::max(id[0], id[1])) >= velo_poses.size()) continue;
+    const Eigen::Isometry3d Tq = velo_poses[static_cast<std::size_t>(id[0])], Tm = velo_poses[static_cast<std::size_t>(id[1])];
     PointCloud q, m;
     std::string err;
     char nq[64], nm[64];
