@@ -4,9 +4,9 @@
 #include "loopd/core/stopwatch.hpp"
 
 #ifdef LOOPD_WITH_PCL
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
 #include <pcl/registration/gicp.h>
+
+#include "pcl_peers_common.hpp"
 #endif
 
 namespace loopd::bench {
@@ -16,14 +16,8 @@ PclGicpResult pcl_gicp_align(const std::vector<Eigen::Vector3f>& source, const s
   PclGicpResult r;
 #ifdef LOOPD_WITH_PCL
   r.available = true;
-  auto to_pcl = [](const std::vector<Eigen::Vector3f>& pts) {
-    pcl::PointCloud<pcl::PointXYZ>::Ptr c(new pcl::PointCloud<pcl::PointXYZ>);
-    c->reserve(pts.size());
-    for (const auto& p : pts) c->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
-    return c;
-  };
-  const auto src = to_pcl(source);
-  const auto tgt = to_pcl(target);
+  const auto src = to_pcl_cloud(source);
+  const auto tgt = to_pcl_cloud(target);
   Stopwatch sw;
   pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> gicp;
   gicp.setCorrespondenceRandomness(k_neighbors);
@@ -36,9 +30,7 @@ PclGicpResult pcl_gicp_align(const std::vector<Eigen::Vector3f>& source, const s
   gicp.align(aligned, init.matrix().cast<float>());
   r.ms = sw.ms();
   r.converged = gicp.hasConverged();
-  r.T_target_source.matrix() = gicp.getFinalTransformation().cast<double>();
-  // Re-orthonormalise the float rotation.
-  r.T_target_source.linear() = Eigen::Quaterniond(r.T_target_source.linear()).normalized().toRotationMatrix();
+  r.T_target_source = isometry_from_pcl(gicp.getFinalTransformation());
 #else
   (void)source;
   (void)target;

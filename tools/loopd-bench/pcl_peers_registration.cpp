@@ -6,10 +6,10 @@
 #include "loopd/core/stopwatch.hpp"
 
 #ifdef LOOPD_WITH_PCL
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
 #include <pcl/registration/ia_fpcs.h>
 #include <pcl/registration/ia_kfpcs.h>
+
+#include "pcl_peers_common.hpp"
 #endif
 
 namespace loopd::bench {
@@ -26,14 +26,8 @@ PclFpcsResult pcl_fpcs_align(PclFpcsVariant variant, const std::vector<Eigen::Ve
   PclFpcsResult r;
 #ifdef LOOPD_WITH_PCL
   r.available = true;
-  auto to_pcl = [](const std::vector<Eigen::Vector3f>& pts) {
-    pcl::PointCloud<pcl::PointXYZ>::Ptr c(new pcl::PointCloud<pcl::PointXYZ>);
-    c->reserve(pts.size());
-    for (const auto& p : pts) c->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
-    return c;
-  };
-  const auto src = to_pcl(source);
-  const auto tgt = to_pcl(target);
+  const auto src = to_pcl_cloud(source);
+  const auto tgt = to_pcl_cloud(target);
   pcl::PointCloud<pcl::PointXYZ> aligned;
   Eigen::Matrix4f T = Eigen::Matrix4f::Identity();
   const double cpu0 = thread_cpu_ms();
@@ -65,10 +59,7 @@ PclFpcsResult pcl_fpcs_align(PclFpcsVariant variant, const std::vector<Eigen::Ve
   }
   r.ms = sw.ms();
   r.cpu_ms = thread_cpu_ms() - cpu0;
-  r.T_target_source.matrix() = T.cast<double>();
-  // Re-orthonormalise the float rotation.
-  const Eigen::Quaterniond q(Eigen::Matrix3d(r.T_target_source.linear()));
-  r.T_target_source.linear() = q.normalized().toRotationMatrix();
+  r.T_target_source = isometry_from_pcl(T);
 #else
   (void)variant;
   (void)source;
