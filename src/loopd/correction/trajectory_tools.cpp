@@ -4,30 +4,24 @@
 #include <cmath>
 #include <random>
 
-#include "loopd/core/kdtree.hpp"
+#include "loopd/core/closest_pose.hpp"
 
 namespace loopd {
 
 TrajectoryError trajectory_error(const std::vector<Eigen::Isometry3d>& estimate, const std::vector<Eigen::Isometry3d>& ground_truth) {
   TrajectoryError e;
   if (estimate.empty() || ground_truth.empty()) return e;
-  std::vector<Eigen::Vector3f> gt_points;
-  gt_points.reserve(ground_truth.size());
-  for (const auto& T : ground_truth) gt_points.push_back(T.translation().cast<float>());
-  const KdTree3f tree(gt_points);
-  std::vector<double> d;
-  d.reserve(estimate.size());
+  std::vector<Eigen::Vector3d> est_positions, gt_positions;
+  est_positions.reserve(estimate.size());
+  gt_positions.reserve(ground_truth.size());
+  for (const auto& T : estimate) est_positions.push_back(T.translation());
+  for (const auto& T : ground_truth) gt_positions.push_back(T.translation());
+  std::vector<double> d = closest_pose_errors(est_positions, gt_positions);
   double ate = 0.0;
   std::size_t ate_n = 0;
-  for (std::size_t i = 0; i < estimate.size(); ++i) {
-    int idx = -1;
-    float dsq = 0.f;
-    tree.nearest(estimate[i].translation().cast<float>(), &idx, &dsq);
-    d.push_back(idx >= 0 ? (estimate[i].translation() - ground_truth[static_cast<std::size_t>(idx)].translation()).norm() : 0.0);
-    if (i < ground_truth.size()) {
-      ate += (estimate[i].translation() - ground_truth[i].translation()).squaredNorm();
-      ++ate_n;
-    }
+  for (std::size_t i = 0; i < estimate.size() && i < ground_truth.size(); ++i) {
+    ate += (estimate[i].translation() - ground_truth[i].translation()).squaredNorm();
+    ++ate_n;
   }
   double sum = 0.0;
   for (double v : d) sum += v;

@@ -4,6 +4,7 @@
 #include <optional>
 #include <vector>
 
+#include "loopd/core/closest_pose.hpp"
 #include "loopd/core/pose.hpp"
 
 namespace loopd {
@@ -15,11 +16,7 @@ struct ErrorStats {
 };
 ErrorStats error_stats(std::vector<double> errors);
 
-/// @brief Distance of each estimated position to its CLOSEST ground-truth position [m] (Vlaminck 2019, 5.4 and
-///        Table 4: "the average distance from all poses in the estimated trajectory with its closest pose in the
-///        ground truth"). No alignment is applied here; the ground truth may be denser than the estimate.
-std::vector<double> closest_pose_errors(const std::vector<Eigen::Vector3d>& estimate,
-                                        const std::vector<Eigen::Vector3d>& ground_truth);
+/// closest_pose_errors (Vlaminck 2019, 5.4): loopd/core/closest_pose.hpp.
 
 /// @brief Least-squares rigid transform T (rotation + translation, optionally scale) with T * source ~ target
 ///        (Umeyama 1991). Needs >= 3 non-collinear points for a unique rotation; returns identity when empty.
