@@ -40,6 +40,21 @@ bool skip_line(const std::string& line) {
 
 std::string where(const std::string& source, int line) { return source + ":" + std::to_string(line) + ": "; }
 
+std::string for_each_number_line(std::istream& in, const std::string& source,
+                                 const std::function<std::string(const std::vector<double>&)>& on_numbers) {
+  std::string line, reason;
+  std::vector<double> v;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (skip_line(line)) continue;
+    if (!parse_numbers(line, &v, nullptr, &reason)) return where(source, line_no) + reason;
+    reason = on_numbers(v);
+    if (!reason.empty()) return where(source, line_no) + reason;
+  }
+  return {};
+}
+
 Eigen::Isometry3d isometry_from_3x4(const double* v) {
   Eigen::Matrix3d R;
   for (int r = 0; r < 3; ++r)
@@ -110,43 +125,28 @@ std::optional<TrajectoryFormat> trajectory_format_from_string(const std::string&
 }
 
 TrajectoryFile parse_trajectory(std::istream& in, TrajectoryFormat format, const std::string& source) {
-  using text::where;
   TrajectoryFile f;
-  std::string line, reason;
-  std::vector<double> v;
-  int line_no = 0;
   const std::size_t want = format == TrajectoryFormat::kKitti ? 12 : 8;
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (text::skip_line(line)) continue;
-    if (!text::parse_numbers(line, &v, nullptr, &reason)) {
-      f.error = where(source, line_no) + reason;
-      return f;
-    }
-    if (v.size() != want) {
-      f.error = where(source, line_no) + "expected " + std::to_string(want) + " numbers (" +
-                (format == TrajectoryFormat::kKitti ? "3x4 row-major pose" : "t x y z qx qy qz qw") + "), got " + std::to_string(v.size());
-      return f;
-    }
+  f.error = text::for_each_number_line(in, source, [&](const std::vector<double>& v) -> std::string {
+    if (v.size() != want)
+      return "expected " + std::to_string(want) + " numbers (" +
+             (format == TrajectoryFormat::kKitti ? "3x4 row-major pose" : "t x y z qx qy qz qw") + "), got " + std::to_string(v.size());
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     if (format == TrajectoryFormat::kKitti) {
-      if (!text::checked_isometry_from_3x4(v.data(), &T, &reason)) {
-        f.error = where(source, line_no) + reason;
-        return f;
-      }
+      std::string reason;
+      if (!text::checked_isometry_from_3x4(v.data(), &T, &reason)) return reason;
       f.stamps.push_back(static_cast<double>(f.poses.size()));
     } else {
       const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
-      if (std::abs(q.norm() - 1.0) > 1e-2) {
-        f.error = where(source, line_no) + "quaternion is not unit length (|q| = " + std::to_string(q.norm()) + ")";
-        return f;
-      }
+      if (std::abs(q.norm() - 1.0) > 1e-2) return "quaternion is not unit length (|q| = " + std::to_string(q.norm()) + ")";
       T.linear() = q.normalized().toRotationMatrix();
       T.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
       f.stamps.push_back(v[0]);
     }
     f.poses.push_back(T);
-  }
+    return {};
+  });
+  if (!f.error.empty()) return f;
   if (f.poses.empty()) f.error = source + ": no poses";
   return f;
 }

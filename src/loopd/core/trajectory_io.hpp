@@ -4,6 +4,7 @@
 // loopd-eval / kitti2lcm (eval), tests and benches; errors name the file and the 1-based line.
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <functional>
 #include <istream>
 #include <optional>
 #include <string>
@@ -69,6 +70,11 @@ bool parse_numbers(const std::string& line, std::vector<double>* out, std::strin
 bool skip_line(const std::string& line);
 /// @brief "<source>:<line>: ".
 std::string where(const std::string& source, int line);
+/// @brief Reads `in` line by line, skipping blank and '#' lines, and calls on_numbers(numbers of the line), which
+///        returns "" when the line is fine or the reason it is not. Returns "" or "<source>:<line>: <reason>" for the
+///        first bad line (a non-number or non-finite value included).
+std::string for_each_number_line(std::istream& in, const std::string& source,
+                                 const std::function<std::string(const std::vector<double>&)>& on_numbers);
 /// @brief 3x4 row-major [R | t] (12 values) to an isometry, R re-orthonormalised (files carry 6-9 digits).
 Eigen::Isometry3d isometry_from_3x4(const double* v);
 /// @brief As isometry_from_3x4, but rejects a rotation part that is not (close to, 1e-2) a rotation matrix.
