@@ -43,12 +43,20 @@ bool KdTree3f::nearest(const Eigen::Vector3f& q, int* index, float* dist_sq) con
 
 int KdTree3f::knn(const Eigen::Vector3f& q, int k, int* indices, float* dists_sq) const {
   if (size() == 0 || k <= 0) return 0;
-  std::vector<std::uint32_t> idx(static_cast<std::size_t>(k));
+  // Small k (the common case: normals, correspondences) uses a stack buffer: no allocation per query.
+  constexpr int kStack = 64;
+  std::uint32_t stack_idx[kStack];
+  std::vector<std::uint32_t> heap_idx;
+  std::uint32_t* idx = stack_idx;
+  if (k > kStack) {
+    heap_idx.resize(static_cast<std::size_t>(k));
+    idx = heap_idx.data();
+  }
   nanoflann::KNNResultSet<float, std::uint32_t> rs(static_cast<std::size_t>(k));
-  rs.init(idx.data(), dists_sq);
+  rs.init(idx, dists_sq);
   impl_->tree.findNeighbors(rs, q.data(), nanoflann::SearchParams());
   const int n = static_cast<int>(rs.size());
-  for (int j = 0; j < n; ++j) indices[j] = static_cast<int>(idx[static_cast<std::size_t>(j)]);
+  for (int j = 0; j < n; ++j) indices[j] = static_cast<int>(idx[j]);
   return n;
 }
 

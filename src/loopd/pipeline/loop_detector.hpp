@@ -24,6 +24,7 @@ struct LoopDetectorConfig {
   LoopDetectorConfig() {
     m2dp.num_threads = 1;
     prepare.num_threads = 1;
+    prepare.normal_k_neighbors = 10;
     verify.four_pcs.num_threads = 1;
     verify.gicp.num_threads = 1;
     correction.graph.num_threads = 1;
