@@ -104,7 +104,6 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
   StoredKeyframe stored{input, features, travelled_};
   if (features) {
     stored_bytes_ += features->prepared.bytes() + static_cast<std::size_t>(features->descriptor.size()) * sizeof(float);
-    ++featured_keyframes_;
   }
   stored_bytes_ += sizeof(StoredKeyframe);
   keyframes_.push_back(stored);

@@ -138,7 +138,6 @@ class LoopDetector {
   LoopCorrector corrector_;
   std::vector<StoredKeyframe> keyframes_;
   std::size_t stored_bytes_ = 0;
-  std::size_t featured_keyframes_ = 0;
   double travelled_ = 0.0;
   double travelled_at_last_loop_ = 0.0;
   std::int64_t next_event_id_ = 0;
