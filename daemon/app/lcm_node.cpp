@@ -211,7 +211,9 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   check_receive_buffer(node.lcm_url, model ? model->rays_per_scan() : 130000);
   const double start = wall_s();
   OutputSink sink(node, &lcm, nullptr, false);
-  LoopdEngine engine(engine_config, &sink);
+  EngineConfig live_config = engine_config;
+  live_config.detector.parallel_candidates = true;  // spare cores shorten the latency tail; same decisions
+  LoopdEngine engine(live_config, &sink);
   InputHandler handler(node);
 
   std::mutex qm;

@@ -72,6 +72,7 @@ struct RunResult {
 RunResult run_once(const std::vector<Input>& inputs, const EngineConfig& base, double speed) {
   EngineConfig config = base;
   config.block_when_full = speed <= 0.0;  // as fast as possible = replay (never sheds); paced = live policy
+  config.detector.parallel_candidates = speed > 0.0;  // as the daemon does live
   LatencySink sink;
   RunResult r;
   {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <future>
 
 #include "loopd/core/cloud_ops.hpp"
 #include "loopd/core/stopwatch.hpp"
@@ -127,40 +128,56 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
       return a.descriptor_distance < b.descriptor_distance || (a.descriptor_distance == b.descriptor_distance && a.kf->input.id < b.kf->input.id);
     });
 
-    int verified = 0;
-    for (const Ranked& r : ranked) {
-      if (r.descriptor_distance > config_.max_descriptor_distance || verified >= config_.max_candidates_per_keyframe) {
-        if (verified == 0) {
-          // Report the best gated candidate's descriptor score even when it is not verified (PR curves need it).
-          LoopDecision d = make_decision(input, *r.kf, r.gate_distance, radius);
-          d.status = LoopStatus::kRejected;
-          d.stage = "descriptor";
-          d.descriptor_distance = r.descriptor_distance;
-          d.ms_descriptor = features->ms_descriptor;
-          d.reason = "descriptor distance above threshold";
-          ++loops_rejected_;
-          out.decisions.push_back(d);
-        }
-        break;
-      }
-      ++verified;
+    // Candidates to verify: under the descriptor threshold, best first, at most max_candidates_per_keyframe.
+    std::size_t num_verify = 0;
+    while (num_verify < ranked.size() && static_cast<int>(num_verify) < config_.max_candidates_per_keyframe &&
+           ranked[num_verify].descriptor_distance <= config_.max_descriptor_distance)
+      ++num_verify;
+    if (num_verify == 0 && !ranked.empty()) {
+      // Report the best gated candidate's descriptor score even when it is not verified (PR curves need it).
+      const Ranked& r = ranked.front();
       LoopDecision d = make_decision(input, *r.kf, r.gate_distance, radius);
+      d.status = LoopStatus::kRejected;
+      d.stage = "descriptor";
       d.descriptor_distance = r.descriptor_distance;
       d.ms_descriptor = features->ms_descriptor;
+      d.reason = "descriptor distance above threshold";
+      ++loops_rejected_;
+      out.decisions.push_back(d);
+    }
+    const bool guided = input.id - last_accepted_id_ <= config_.guided_window;
+    // One candidate's verification; reads nothing that changes while it runs (the guess is computed up front).
+    auto verify_candidate = [this, guided, &features](const PreparedScan* match, Eigen::Isometry3d guess) {
       VerifyResult v;
-      const bool guided = input.id - last_accepted_id_ <= config_.guided_window;
       if (guided) {
         // The corrected map is locally consistent right after a loop: its relative pose seeds GICP.
-        const Eigen::Isometry3d& T_map_match = corrector_.corrected_poses()[static_cast<std::size_t>(r.kf->input.id)];
-        v = verify_from_guess(features->prepared, r.kf->features->prepared, T_map_match.inverse() * T_map_query, config_.verify);
+        v = verify_from_guess(features->prepared, *match, guess, config_.verify);
       }
       if (!guided || !v.accepted) {
         const double guided_ms = guided ? v.ms_total : 0.0;
-        v = verify(features->prepared, r.kf->features->prepared, config_.verify);
+        v = verify(features->prepared, *match, config_.verify);
         v.ms_total += guided_ms;
       } else {
         v.reason = "guided: GICP from the corrected map's relative pose (4PCS skipped)" + (v.reason.empty() ? std::string() : "; " + v.reason);
       }
+      return v;
+    };
+    std::vector<Eigen::Isometry3d> guesses(num_verify, Eigen::Isometry3d::Identity());
+    for (std::size_t i = 0; i < num_verify; ++i)
+      if (guided) guesses[i] = corrector_.corrected_poses()[static_cast<std::size_t>(ranked[i].kf->input.id)].inverse() * T_map_query;
+    // Live mode verifies the other candidates concurrently (spare cores cut the latency tail); the decision is the
+    // same either way: the first accepted candidate in rank order wins and later ones are not reported.
+    std::vector<std::future<VerifyResult>> pending(num_verify);
+    if (config_.parallel_candidates && !guided)
+      for (std::size_t i = 1; i < num_verify; ++i)
+        pending[i] = std::async(std::launch::async, verify_candidate, &ranked[i].kf->features->prepared, guesses[i]);
+
+    for (std::size_t i = 0; i < num_verify; ++i) {
+      const Ranked& r = ranked[i];
+      LoopDecision d = make_decision(input, *r.kf, r.gate_distance, radius);
+      d.descriptor_distance = r.descriptor_distance;
+      d.ms_descriptor = features->ms_descriptor;
+      const VerifyResult v = pending[i].valid() ? pending[i].get() : verify_candidate(&r.kf->features->prepared, guesses[i]);
       d.stage = v.accepted ? "accepted" : to_string(v.stage);
       d.reason = v.reason;
       d.lcp_fraction = v.lcp_fraction;

@@ -41,6 +41,9 @@ struct LoopDetectorConfig {
   /// to its candidates: GICP starts from that relative pose and the global 4PCS search is skipped (it runs only when
   /// this guided check rejects). 0 = always run 4PCS (the paper's pipeline).
   int guided_window = 5;
+  /// Verify the candidates of one keyframe concurrently (live: spare cores shorten the latency tail). Decisions do
+  /// not depend on it: the first accepted candidate in rank order wins. The daemon turns it on in live mode only.
+  bool parallel_candidates = false;
   /// [m] with correction.graph.use_plane_constraints: keyframes whose ground lies in the same cell of this size
   /// observe one roadway plane node (Ren 2019, Sec. 3.4.2); a town's ground is only locally planar.
   double plane_cell_size = 40.0;
