@@ -11,6 +11,8 @@
 #include <lcm/lcm-cpp.hpp>
 #include <mutex>
 #include <thread>
+
+#include <pthread.h>
 #include <variant>
 
 #include "lcm_log.hpp"
@@ -231,6 +233,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   lcm.subscribe(node.pose_channel, &InputHandler::on_raw, &handler);
 
   std::thread ingest_thread([&] {
+    pthread_setname_np(pthread_self(), "loopd-ingest");
     std::int64_t last_data_utime = 0;
     double next_status = wall_s() + node.status_period;
     for (;;) {

@@ -2,6 +2,8 @@
 
 #include <chrono>
 #include <cmath>
+#include <pthread.h>
+#include <string>
 
 namespace loopd {
 
@@ -19,7 +21,12 @@ LoopdEngine::LoopdEngine(const EngineConfig& config, EngineSink* sink)
   int n = config_.num_threads > 0 ? config_.num_threads : static_cast<int>(std::thread::hardware_concurrency());
   if (n < 1) n = 1;
   stats_.device = detector_.descriptor_device();
-  for (int i = 0; i < n; ++i) workers_.emplace_back([this] { worker_loop(); });
+  for (int i = 0; i < n; ++i)
+    workers_.emplace_back([this, i] {
+      const std::string name = "loopd-worker" + std::to_string(i);  // what top -H and gdb show
+      pthread_setname_np(pthread_self(), name.c_str());
+      worker_loop();
+    });
 }
 
 LoopdEngine::~LoopdEngine() {
@@ -89,8 +96,13 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
 void LoopdEngine::submit(Job job) {
   std::unique_lock<std::mutex> lock(queue_mutex_);
   if (config_.block_when_full) {
-    space_cv_.wait(lock, [&] { return static_cast<int>(queue_.size()) < config_.queue_capacity || stopping_; });
-  } else if (static_cast<int>(queue_.size()) >= config_.queue_capacity) {
+    space_cv_.wait(lock, [&] { return !full() || stopping_; });
+  } else {
+    // Live. The sequential stage far behind (a long verification): wait for it rather than pile up keyframes; the
+    // LCM thread keeps receiving into its own bounded input queue meanwhile.
+    space_cv_.wait(lock, [&] { return ready_backlog_.load() < kReadyFactor * config_.queue_capacity || stopping_; });
+  }
+  if (!config_.block_when_full && static_cast<int>(queue_.size()) >= config_.queue_capacity) {
     // Load shedding (live): the oldest waiting keyframe keeps its pose but skips features and verification.
     Job shed = std::move(queue_.front());
     queue_.pop_front();
@@ -136,12 +148,20 @@ void LoopdEngine::worker_loop() {
 void LoopdEngine::complete(std::int64_t id, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features) {
   std::unique_lock<std::mutex> lock(sequence_mutex_);
   ready_.emplace(id, std::make_pair(input, std::move(features)));
+  ready_backlog_.store(static_cast<int>(ready_.size()));
+  if (sequencing_) return;  // the thread that is sequencing takes it (checked and cleared under the same lock)
+  sequencing_ = true;
   // The sequential stage runs strictly in keyframe order, so live and replay runs make the same decisions.
   while (!ready_.empty() && ready_.begin()->first == next_to_sequence_) {
     auto item = std::move(ready_.begin()->second);
     ready_.erase(ready_.begin());
+    ready_backlog_.store(static_cast<int>(ready_.size()));
+    lock.unlock();
+    {
+      std::lock_guard<std::mutex> q(queue_mutex_);  // a blocked submit() may now have room
+    }
+    space_cv_.notify_one();
     DetectorOutput out = detector_.add_keyframe(item.first, item.second);
-    ++next_to_sequence_;
     for (const auto& d : out.decisions) sink_->on_decision(d);
     if (out.correction) sink_->on_correction(*out.correction);
     {
@@ -152,8 +172,11 @@ void LoopdEngine::complete(std::int64_t id, KeyframeInput input, std::shared_ptr
       stats_.bytes_per_keyframe = static_cast<std::int64_t>(detector_.bytes_per_keyframe());
       T_map_odom_ = detector_.T_map_odom();
     }
+    lock.lock();
+    ++next_to_sequence_;
     sequenced_.fetch_add(1);
   }
+  sequencing_ = false;
   lock.unlock();
   done_cv_.notify_all();
 }

@@ -22,7 +22,7 @@ struct EngineConfig {
   AssociationConfig association;
   LoopDetectorConfig detector;
   int num_threads = 0;                   ///< feature/verification workers; 0 = hardware threads
-  int queue_capacity = 16;               ///< keyframes waiting for a worker
+  int queue_capacity = 16;               ///< keyframes waiting for a worker (4x this may wait for the sequential stage)
   bool block_when_full = false;          ///< replay: wait for workers; live: shed (see README "Load shedding")
   std::int64_t max_points_per_scan = 2000000;  ///< larger scans are rejected as invalid
   std::optional<std::string> validate() const;
@@ -82,6 +82,13 @@ class LoopdEngine {
   };
   void handle_associated(std::vector<AssociatedScan> scans);
   void submit(Job job);
+  /// No room for another keyframe (queue_mutex_ held): queue_capacity raw scans wait for a worker, or 4x that many
+  /// finished keyframes (features only, ~0.1 MB each) wait for the sequential stage. The second bound is wider so
+  /// that the workers keep going while one long verification runs, and still keeps memory bounded.
+  static constexpr int kReadyFactor = 4;
+  bool full() const {
+    return static_cast<int>(queue_.size()) >= config_.queue_capacity || ready_backlog_.load() >= kReadyFactor * config_.queue_capacity;
+  }
   void worker_loop();
   void complete(std::int64_t id, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features);
 
@@ -101,8 +108,13 @@ class LoopdEngine {
   bool stopping_ = false;
   std::vector<std::thread> workers_;
 
+  // Finished keyframes wait in ready_ until every earlier one is sequenced. One thread at a time runs the sequential
+  // stage (sequencing_); a worker that finishes meanwhile leaves its keyframe here and goes back to the queue
+  // instead of waiting for the lock, so both cores stay busy while a loop is verified.
   std::mutex sequence_mutex_;
   std::map<std::int64_t, std::pair<KeyframeInput, std::shared_ptr<const KeyframeFeatures>>> ready_;
+  bool sequencing_ = false;
+  std::atomic<int> ready_backlog_{0};  ///< ready_.size(), readable without sequence_mutex_ (counts against the queue)
   std::int64_t next_to_sequence_ = 0;
   std::condition_variable done_cv_;
   std::mutex done_mutex_;
