@@ -70,7 +70,7 @@ PointCloud voxel_downsample(const PointCloud& cloud, double leaf_size) {
     const std::int64_t z = static_cast<std::int64_t>(std::floor(p.z() * inv)) + kOffset;
     if (x < 0 || y < 0 || z < 0 || x >= (1 << 21) || y >= (1 << 21) || z >= (1 << 21)) continue;
     const std::uint64_t key = (static_cast<std::uint64_t>(x) << 42) | (static_cast<std::uint64_t>(y) << 21) | static_cast<std::uint64_t>(z);
-    std::size_t h = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> 20) & (capacity - 1);
+    std::size_t h = detail::voxel_slot(key, capacity);
     while (slot_key[h] != kEmpty && slot_key[h] != key) h = (h + 1) & (capacity - 1);
     if (slot_key[h] == kEmpty) {
       slot_key[h] = key;

@@ -57,7 +57,7 @@ std::vector<Eigen::Vector3f> crop_voxel_downsample(const std::vector<Eigen::Vect
   constexpr std::int64_t kLimit = std::int64_t{1} << 21;
   constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
   std::size_t capacity = 16;
-  while (capacity < points.size() / 2) capacity <<= 1;  // voxels << points; grown below when needed
+  while (capacity < points.size() / 16) capacity <<= 1;  // voxels << points (~1:15 at 0.6 m); grown below when needed
   std::vector<std::uint64_t> slot_key(capacity, kEmpty);
   std::vector<std::uint32_t> slot_voxel(capacity);
   struct Voxel {
@@ -68,7 +68,7 @@ std::vector<Eigen::Vector3f> crop_voxel_downsample(const std::vector<Eigen::Vect
   std::vector<Voxel> voxels;
   voxels.reserve(capacity / 4);
   auto insert_slot = [&](std::uint64_t key, std::uint32_t v) {
-    std::size_t h = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> 20) & (capacity - 1);
+    std::size_t h = detail::voxel_slot(key, capacity);
     while (slot_key[h] != kEmpty && slot_key[h] != key) h = (h + 1) & (capacity - 1);
     return h;
   };
