@@ -148,7 +148,10 @@ int run_bench_gicp(int argc, char** argv) {
     std::vector<double> ms, terr, rerr, cpu;
     int success = 0, runs = 0;
   };
-  Method full{"loopd align_gicp", {}, {}, {}}, cached{"loopd, cached normals", {}, {}, {}}, pcl{"PCL GICP", {}, {}, {}};
+  Method full, cached, pcl;
+  full.name = "loopd align_gicp";
+  cached.name = "loopd, cached normals";
+  pcl.name = "PCL GICP";
   auto record = [](Method* m, const Eigen::Isometry3d& T, const Eigen::Isometry3d& truth, double ms, double cpu) {
     m->cpu.push_back(cpu);
     const double te = (T.translation() - truth.translation()).norm(), re = rot_err_deg(T, truth);
