@@ -1,6 +1,7 @@
 // Pose-graph correction (Ren 2019, Sec. 3.4) on synthetic drives with drift: accuracy vs the heuristic, robustness to
 // a wrong loop, degenerate loops, plane constraints, reduced vs full graph.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 
 #include "loopd/correction/loop_corrector.hpp"
@@ -219,4 +220,54 @@ TEST_CASE("graph: odometry step information (covariance) decides where the loop 
   CHECK(p[250].translation().y() == Approx(2.0).margin(0.05));
   const auto [t, r] = loop_end_error(p, loop);
   CHECK(t < 0.1);
+}
+
+TEST_CASE("heuristic+graph online: the graph is re-solved at most once per graph_interval keyframes, at once when far off") {
+  const Scenario s = make_scenario(900, 5);
+  std::vector<LoopConstraint> loops = find_ground_truth_loops(s.gt, 1.0, 100, 1, 0);  // every revisiting pose
+  std::sort(loops.begin(), loops.end(), [](const LoopConstraint& a, const LoopConstraint& b) {
+    return std::max(a.query_index, a.match_index) < std::max(b.query_index, b.match_index);
+  });
+  REQUIRE(loops.size() >= 20);
+
+  auto online = [&](int interval, int* solved, int* deferred) {
+    LoopCorrectorConfig cfg;
+    cfg.graph_interval = interval;
+    LoopCorrector c(cfg);
+    std::size_t next = 0;
+    int last_solved = -1;
+    for (int i = 0; i < static_cast<int>(s.odom.poses.size()); ++i) {
+      c.add_keyframe(s.odom.poses[static_cast<std::size_t>(i)], s.odom.residuals[static_cast<std::size_t>(i)]);
+      for (; next < loops.size() && std::max(loops[next].query_index, loops[next].match_index) == i; ++next) {
+        const CorrectionResult r = c.add_loop(loops[next]);
+        REQUIRE(r.ok);
+        const bool far_off = r.start_translation_error > cfg.graph_now_translation || r.start_rotation_error > cfg.graph_now_rotation_deg * kDeg;
+        INFO("loop ending at " << i << ": " << r.start_translation_error << " m off before, deferred " << r.graph_deferred);
+        if (next == 0) CHECK(far_off);  // the first loop of the drive: odometry drift
+        if (r.graph_deferred) {
+          ++*deferred;
+          CHECK(i - last_solved < interval);
+          CHECK_FALSE(far_off);
+        } else {
+          ++*solved;
+          CHECK((last_solved < 0 || i - last_solved >= interval || far_off));
+          last_solved = i;
+        }
+        CHECK(r.end_translation_error < 0.1);  // deferred or not, the new loop is closed
+        CHECK(r.end_rotation_error < 0.5 * kDeg);
+      }
+    }
+    return c.corrected_poses();
+  };
+  int solved = 0, deferred = 0, solved_every = 0, deferred_every = 0;
+  const TrajectoryError before = trajectory_error(s.odom.poses, s.gt);
+  const TrajectoryError every = trajectory_error(online(1, &solved_every, &deferred_every), s.gt);
+  const TrajectoryError spaced = trajectory_error(online(5, &solved, &deferred), s.gt);
+  INFO("loops " << loops.size() << ": solved " << solved << ", deferred " << deferred << "; mean " << before.mean_closest << " -> "
+                << spaced.mean_closest << " (graph on every loop " << every.mean_closest << ")");
+  CHECK(deferred_every == 0);
+  CHECK(solved_every == static_cast<int>(loops.size()));
+  CHECK(deferred > 2 * solved);  // consecutive loops of a revisit mostly wait
+  CHECK(before.mean_closest / spaced.mean_closest >= 2.0);
+  CHECK(spaced.mean_closest <= every.mean_closest * 1.15);
 }

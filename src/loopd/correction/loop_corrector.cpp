@@ -7,6 +7,9 @@
 #include "loopd/correction/trajectory_tools.hpp"
 
 namespace loopd {
+namespace {
+constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+}  // namespace
 
 std::string to_string(CorrectionMethod method) {
   switch (method) {
@@ -30,6 +33,8 @@ std::optional<CorrectionMethod> correction_method_from_string(const std::string&
 std::optional<std::string> LoopCorrectorConfig::validate() const {
   if (auto e = heuristic.validate()) return "heuristic: " + *e;
   if (auto e = graph.validate()) return "graph: " + *e;
+  if (graph_interval < 1) return "graph_interval must be >= 1";
+  if (!(graph_now_translation >= 0.0) || !(graph_now_rotation_deg >= 0.0)) return "graph_now_translation and graph_now_rotation_deg must be >= 0";
   return std::nullopt;
 }
 
@@ -91,6 +96,10 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
   max_end_index_ = e;
 
   Stopwatch watch;
+  std::tie(r.start_translation_error, r.start_rotation_error) = loop_end_error(corrected_, loop);
+  const bool far_off = r.start_translation_error > config_.graph_now_translation ||
+                       r.start_rotation_error > config_.graph_now_rotation_deg * kDegToRad;
+  const bool graph_due = last_graph_index_ < 0 || e - last_graph_index_ >= config_.graph_interval || far_off;
   // Online case: apply the new loop to the current corrected state; closed spans keep earlier loops closed.
   std::vector<Eigen::Isometry3d> warm = corrected_;
   const std::vector<double> base = edge_weights(odometry_, residuals_, config_.heuristic);
@@ -100,8 +109,14 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
   if (config_.method == CorrectionMethod::kHeuristic) {
     corrected_ = std::move(warm);
     r.reason = "heuristic";
+  } else if (config_.method == CorrectionMethod::kHeuristicThenGraph && !graph_due) {
+    corrected_ = std::move(warm);
+    r.method = CorrectionMethod::kHeuristic;
+    r.graph_deferred = true;
+    r.reason = "heuristic (graph deferred: solved " + std::to_string(e - last_graph_index_) + " keyframes ago)";
   } else {
     r = run_graph(std::move(warm), r);
+    last_graph_index_ = e;
   }
   r.ok = true;
   std::tie(r.end_translation_error, r.end_rotation_error) = loop_end_error(corrected_, loop);
@@ -142,6 +157,7 @@ CorrectionResult LoopCorrector::recorrect_all() {
     r.reason = "heuristic";
   } else {
     r = run_graph(std::move(warm), r);
+    last_graph_index_ = max_end_index_;
   }
   r.ok = true;
   if (!loops_.empty()) std::tie(r.end_translation_error, r.end_rotation_error) = loop_end_error(corrected_, loops_.back());

@@ -25,6 +25,13 @@ struct LoopCorrectorConfig {
   CorrectionMethod method = CorrectionMethod::kHeuristicThenGraph;
   HeuristicCorrectionConfig heuristic;
   PoseGraphConfig graph;
+  /// heuristic+graph, online: the pose graph (whose cost grows with the trajectory) is re-solved at most once per
+  /// this many keyframes; loops in between are closed by the heuristic alone and join the next solve. A loop the
+  /// corrected map misses by more than graph_now_translation or graph_now_rotation_deg (typically the first loop of a
+  /// revisit) is solved at once. 1: solve on every loop.
+  int graph_interval = 5;
+  double graph_now_translation = 1.0;  ///< [m]
+  double graph_now_rotation_deg = 3.0; ///< [deg]
   std::optional<std::string> validate() const;
 };
 
@@ -38,6 +45,9 @@ struct CorrectionResult {
   double ms_graph = 0;           ///< [ms]
   int graph_iterations = 0;
   bool graph_converged = false;
+  bool graph_deferred = false;   ///< heuristic+graph: closed by the heuristic, the graph waits (graph_interval)
+  double start_translation_error = 0;  ///< [m] loop-end mismatch of the new loop before correction
+  double start_rotation_error = 0;     ///< [rad]
   double end_translation_error = 0;  ///< [m] loop-end mismatch of the new loop after correction
   double end_rotation_error = 0;     ///< [rad]
 };
@@ -96,6 +106,7 @@ class LoopCorrector {
   std::vector<Eigen::Matrix<double, 6, 6>> step_information_;  ///< empty until a keyframe brings one
   std::vector<std::pair<int, int>> closed_spans_;
   int max_end_index_ = -1;
+  int last_graph_index_ = -1;  ///< newest loop end when the graph was last solved online
 };
 
 }  // namespace loopd
