@@ -41,8 +41,12 @@ KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
   KeyframeFeatures f;
   f.input_points = scan.size();
   std::size_t removed = 0;
-  const PointCloud clean = remove_non_finite(scan, &removed);
+  for (const Eigen::Vector3f& p : scan.points) removed += p.allFinite() ? 0 : 1;
   f.invalid_points = removed;
+  // Copy the finite points only when there are others (a clean scan, the usual case, is used as it is).
+  PointCloud filtered;
+  if (removed > 0) filtered = remove_non_finite(scan);
+  const PointCloud& clean = removed > 0 ? filtered : scan;
   if (clean.size() < 100) {
     f.error = "scan has " + std::to_string(clean.size()) + " finite points (need >= 100)";
     return f;
