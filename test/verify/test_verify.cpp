@@ -1,4 +1,5 @@
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -85,6 +86,38 @@ TEST_CASE("prepare_scan keeps an HDL-64E town scan within the keyframe memory bu
   bool all_finite_in_range = true;
   for (const auto& p : s.points) all_finite_in_range = all_finite_in_range && p.allFinite() && p.norm() > 1.5f && p.norm() < 61.f;
   CHECK(all_finite_in_range);
+}
+
+TEST_CASE("range-image GICP normals agree with k-nearest-neighbour normals where the surface is smooth") {
+  const Town town = make_town(1);
+  const LidarModel model = lidar_model_hdl64();
+  const PointCloud scan = simulate_scan(town, model, street_pose(town, 0, 0, 0, 22.0), 1, 2, 0);
+  PrepareConfig range_cfg;  // default: normals from the segmentation's range image
+  PrepareConfig knn_cfg;
+  knn_cfg.range_image_normal_coherence = 0.0;  // PCA of the k nearest voxel centroids
+  knn_cfg.normal_k_neighbors = 10;
+  REQUIRE(range_cfg.range_image_normal_coherence > 0.0);
+  const PreparedScan r = prepare_scan(scan, &model, range_cfg), k = prepare_scan(scan, &model, knn_cfg);
+  REQUIRE(r.points.size() == k.points.size());  // same voxels either way
+  const auto rn = r.unpacked_normals(), kn = k.unpacked_normals();
+  REQUIRE(rn.size() == r.points.size());
+  std::vector<double> angles;
+  std::size_t with_normal = 0;
+  for (std::size_t i = 0; i < rn.size(); ++i) {
+    CHECK(r.points[i].isApprox(k.points[i]));
+    if (rn[i].isZero()) continue;
+    ++with_normal;
+    CHECK(std::abs(rn[i].norm() - 1.f) < 0.01f);
+    if (!kn[i].isZero()) angles.push_back(std::acos(std::min(1.0, static_cast<double>(std::abs(rn[i].dot(kn[i]))))) * 180.0 / M_PI);
+  }
+  std::sort(angles.begin(), angles.end());
+  REQUIRE(!angles.empty());
+  const double share = static_cast<double>(with_normal) / static_cast<double>(rn.size());
+  const double median = angles[angles.size() / 2], p75 = angles[angles.size() * 3 / 4];
+  INFO("voxels " << rn.size() << ", with a range-image normal " << share << ", angle to the kNN normal median " << median << " deg, p75 " << p75);
+  CHECK(share > 0.6);    // walls, ground and car bodies; edges, corners and trees get none
+  CHECK(median < 5.0);
+  CHECK(p75 < 10.0);
 }
 
 TEST_CASE("true revisits are accepted with the final transform within 0.2 m and 1 deg") {

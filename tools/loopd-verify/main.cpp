@@ -28,6 +28,10 @@ int main(int argc, char** argv) {
   app.add_option("--sensor", sensor, "lidar model for the range image: vlp16 | hdl32 | hdl64 | os1-64 | none (derive rings)");
   app.add_option("--voxel", prep.voxel_size, "voxel size [m]")->capture_default_str();
   app.add_option("--max-range", prep.max_range, "crop range [m]")->capture_default_str();
+  app.add_option("--normal-coherence", prep.range_image_normal_coherence,
+                 "GICP normals from the range image, none where a voxel's normals agree less than this; 0: k-nearest-neighbour PCA")
+      ->capture_default_str();
+  app.add_option("--normal-k", prep.normal_k_neighbors, "neighbours for the k-nearest-neighbour normals")->capture_default_str();
   app.add_option("--threads", threads, "threads for GICP and normals")->capture_default_str();
   app.add_option("--guess", guess, "skip 4PCS: GICP starts from this T_match_query (16 row-major numbers)")->expected(16);
   app.add_option("--min-lcp", cfg.min_lcp_fraction, "4PCS LCP fraction needed")->capture_default_str();

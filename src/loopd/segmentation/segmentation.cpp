@@ -413,9 +413,11 @@ int Segmentation::num_planar() const {
   return n;
 }
 
-Segmentation segment(const PointCloud& scan, const LidarModel* model, const SegmentationConfig& config) {
+Segmentation segment(const PointCloud& scan, const LidarModel* model, const SegmentationConfig& config,
+                     std::vector<Eigen::Vector3f>* point_normals) {
   Stopwatch sw;
   Segmentation out;
+  if (point_normals) point_normals->assign(scan.points.size(), Eigen::Vector3f::Zero());
   if (auto err = config.validate()) {
     out.error = "invalid SegmentationConfig: " + *err;
     return out;
@@ -431,6 +433,10 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
     return out;
   }
   compute_normals(config, &img);
+  if (point_normals) {
+    for (std::size_t k = 0; k < img.index.size(); ++k)
+      if (img.index[k] >= 0) (*point_normals)[static_cast<std::size_t>(img.index[k])] = img.normal[k];
+  }
 
   // Region growing over 4-neighbours (holes of one pixel are bridged) with the two comparators of Sec. 4.2.1.
   const int cols = img.cols;

@@ -59,6 +59,10 @@ struct Segmentation {
 /// @brief Segments a scan on its range image: region growing over 4-neighbours with a 3D-distance and a normal-deviation
 /// comparator, PCA plane fit per cluster, 2D convex hull of planar clusters (Vlaminck 2019, Sec. 4.2.1).
 /// @param model lidar model used to derive rings from elevation when `scan` has none; nullptr: use scan.ring or bin elevations.
-Segmentation segment(const PointCloud& scan, const LidarModel* model, const SegmentationConfig& config);
+/// @param point_normals when given: resized to the scan and filled with each point's unit surface normal from the range
+/// image (facing the sensor), zero where none is known (outside the range limits, hidden behind a nearer return in
+/// its pixel, no neighbours). Costs one pass over the image: the normals are computed for the segmentation anyway.
+Segmentation segment(const PointCloud& scan, const LidarModel* model, const SegmentationConfig& config,
+                     std::vector<Eigen::Vector3f>* point_normals = nullptr);
 
 }  // namespace loopd

@@ -32,6 +32,7 @@ std::optional<std::string> PrepareConfig::validate() const {
   if (!(min_range >= 0.0) || !(max_range > min_range)) return "PrepareConfig needs 0 <= min_range < max_range";
   if (normal_k_neighbors != 0 && (normal_k_neighbors < 4 || normal_k_neighbors > 64)) return "PrepareConfig.normal_k_neighbors must be 0 or in [4, 64]";
   if (num_threads < 1) return "PrepareConfig.num_threads must be >= 1";
+  if (!(range_image_normal_coherence >= 0.0 && range_image_normal_coherence <= 1.0)) return "PrepareConfig.range_image_normal_coherence must be in [0, 1]";
   SegmentationConfig s = segmentation;
   s.min_range = min_range;
   s.max_range = max_range;
@@ -51,7 +52,11 @@ inline std::int64_t floor_to_int(double v) {
 /// output as voxel_downsample(crop_range(remove_non_finite(scan))) (same key, same double sums in index order, same
 /// order), fused into one pass without copying the cloud or its attributes. Consecutive lidar returns usually fall in
 /// the same voxel, so the last voxel is remembered and the hash probe skipped for them.
-std::vector<Eigen::Vector3f> crop_voxel_downsample(const std::vector<Eigen::Vector3f>& points, float lo2, float hi2, double leaf_size) {
+/// With `point_normals` (sized like `points`), `voxel_normals` gets the mean of each voxel's non-zero point normals,
+/// or zero when their mean is shorter than `coherence`.
+std::vector<Eigen::Vector3f> crop_voxel_downsample(const std::vector<Eigen::Vector3f>& points, float lo2, float hi2, double leaf_size,
+                                                   const std::vector<Eigen::Vector3f>* point_normals = nullptr, float coherence = 0.f,
+                                                   std::vector<Eigen::Vector3f>* voxel_normals = nullptr) {
   const double inv = 1.0 / leaf_size;
   constexpr std::int64_t kOffset = 1 << 20;
   constexpr std::int64_t kLimit = std::int64_t{1} << 21;
@@ -64,7 +69,10 @@ std::vector<Eigen::Vector3f> crop_voxel_downsample(const std::vector<Eigen::Vect
     std::uint64_t key;
     Eigen::Vector3d sum;
     std::uint32_t count;
+    std::uint32_t normal_count;
+    Eigen::Vector3f normal_sum;
   };
+  const bool with_normals = point_normals && voxel_normals && point_normals->size() == points.size();
   std::vector<Voxel> voxels;
   voxels.reserve(capacity / 4);
   auto insert_slot = [&](std::uint64_t key, std::uint32_t v) {
@@ -74,7 +82,8 @@ std::vector<Eigen::Vector3f> crop_voxel_downsample(const std::vector<Eigen::Vect
   };
   std::uint64_t last_key = kEmpty;
   std::uint32_t last_voxel = 0;
-  for (const Eigen::Vector3f& p : points) {
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f& p = points[i];
     const float d2 = p.squaredNorm();  // NaN/Inf fail the range test
     if (!(d2 >= lo2 && d2 <= hi2) || !p.allFinite()) continue;
     const std::int64_t x = floor_to_int(p.x() * inv) + kOffset;
@@ -98,7 +107,7 @@ std::vector<Eigen::Vector3f> crop_voxel_downsample(const std::vector<Eigen::Vect
         }
         slot_key[h] = key;
         slot_voxel[h] = static_cast<std::uint32_t>(voxels.size());
-        voxels.push_back({key, Eigen::Vector3d::Zero(), 0});
+        voxels.push_back({key, Eigen::Vector3d::Zero(), 0, 0, Eigen::Vector3f::Zero()});
       }
       last_key = key;
       last_voxel = slot_voxel[h];
@@ -106,11 +115,27 @@ std::vector<Eigen::Vector3f> crop_voxel_downsample(const std::vector<Eigen::Vect
     Voxel& v = voxels[last_voxel];
     v.sum += p.cast<double>();
     ++v.count;
+    if (with_normals) {
+      const Eigen::Vector3f& n = (*point_normals)[i];
+      if (!n.isZero()) {
+        v.normal_sum += n;
+        ++v.normal_count;
+      }
+    }
   }
   std::sort(voxels.begin(), voxels.end(), [](const Voxel& a, const Voxel& b) { return a.key < b.key; });
   std::vector<Eigen::Vector3f> out;
   out.reserve(voxels.size());
   for (const Voxel& v : voxels) out.push_back((v.sum / static_cast<double>(v.count)).cast<float>());
+  if (with_normals) {
+    voxel_normals->assign(voxels.size(), Eigen::Vector3f::Zero());
+    for (std::size_t k = 0; k < voxels.size(); ++k) {
+      const Voxel& v = voxels[k];
+      if (v.normal_count == 0) continue;
+      const float len = v.normal_sum.norm();
+      if (len >= coherence * static_cast<float>(v.normal_count) && len > 0.f) (*voxel_normals)[k] = v.normal_sum / len;
+    }
+  }
   return out;
 }
 
@@ -143,29 +168,43 @@ PreparedScan prepare_scan(const PointCloud& scan, const LidarModel* model, const
     return out;
   }
   Stopwatch seg_sw;
+  const bool range_normals = config.normal_k_neighbors > 0 && config.range_image_normal_coherence > 0.0;
+  std::vector<Eigen::Vector3f> point_normals;
   SegmentationConfig seg_cfg = config.segmentation;
   seg_cfg.min_range = config.min_range;
   seg_cfg.max_range = config.max_range;
   if (in_range < static_cast<std::size_t>(std::max(seg_cfg.min_cluster_points, 0))) {
     out.segmentation.error = "too few points to segment";  // what segment() says for the cropped cloud
   } else {
-    out.segmentation = segment(scan, model, seg_cfg);
+    out.segmentation = segment(scan, model, seg_cfg, range_normals ? &point_normals : nullptr);
   }
   out.ms_segmentation = seg_sw.ms();
   if (!out.segmentation.error.empty()) out.error = "segmentation: " + out.segmentation.error;
 
-  std::vector<Eigen::Vector3f> down = crop_voxel_downsample(scan.points, lo2, hi2, config.voxel_size);
+  const bool have_range_normals = range_normals && out.segmentation.error.empty() && point_normals.size() == scan.size();
+  std::vector<Eigen::Vector3f> voxel_normals;
+  std::vector<Eigen::Vector3f> down =
+      crop_voxel_downsample(scan.points, lo2, hi2, config.voxel_size, have_range_normals ? &point_normals : nullptr,
+                            static_cast<float>(config.range_image_normal_coherence), &voxel_normals);
+  point_normals = {};
+  std::vector<Eigen::Vector3f> kept_normals;
   if (config.max_points > 0 && down.size() > config.max_points) {
     // Deterministic stride subsample (voxel order is spatially sorted, so a stride keeps the coverage).
     const double stride = static_cast<double>(down.size()) / static_cast<double>(config.max_points);
     out.points.reserve(config.max_points);
-    for (std::size_t k = 0; k < config.max_points; ++k) out.points.push_back(down[static_cast<std::size_t>(static_cast<double>(k) * stride)]);
+    for (std::size_t k = 0; k < config.max_points; ++k) {
+      const auto i = static_cast<std::size_t>(static_cast<double>(k) * stride);
+      out.points.push_back(down[i]);
+      if (have_range_normals) kept_normals.push_back(voxel_normals[i]);
+    }
   } else {
     out.points = std::move(down);
+    kept_normals = std::move(voxel_normals);
   }
   out.points.shrink_to_fit();
   if (config.normal_k_neighbors > 0) {
-    const std::vector<Eigen::Vector3f> normals = estimate_gicp_normals(out.points, config.normal_k_neighbors, config.num_threads);
+    const std::vector<Eigen::Vector3f> normals =
+        have_range_normals ? std::move(kept_normals) : estimate_gicp_normals(out.points, config.normal_k_neighbors, config.num_threads);
     out.normals.reserve(normals.size());
     for (const auto& n : normals) {
       PackedNormal p;

@@ -22,8 +22,9 @@ struct PackedNormal {
 /// @brief A scan prepared for verify(): everything 4PCS, GICP and the centroid check need, nothing more.
 struct PreparedScan {
   std::vector<Eigen::Vector3f> points;  ///< [m] voxel-downsampled, range-cropped, finite (sensor frame)
-  /// GICP normals of `points` (estimate_gicp_normals), cached so a keyframe's covariances are computed once, not once
-  /// per loop candidate. Empty: verify() estimates them. Quantisation error <= ~0.5 deg.
+  /// GICP normals of `points` (from the range image, or estimate_gicp_normals; see PrepareConfig), cached so a
+  /// keyframe's covariances are computed once, not once per loop candidate; (0, 0, 0): none known (isotropic
+  /// covariance). Empty: verify() estimates them. Quantisation error <= ~0.5 deg.
   std::vector<PackedNormal> normals;
   Segmentation segmentation;            ///< clusters of the full-resolution scan (Vlaminck 2019, Sec. 4.2.1)
   std::size_t input_points = 0;         ///< points in the raw scan
@@ -52,6 +53,11 @@ struct PrepareConfig {
   double max_range = 60.0;   ///< [m] far points are sparse and barely overlap between two visits
   std::size_t max_points = 6000;  ///< cap on `points` (deterministic stride subsample beyond it; memory budget); 0: no cap
   int normal_k_neighbors = 20;    ///< neighbours for the cached GICP normals (GicpConfig::k_neighbors); 0: cache none
+  /// Cached GICP normals from the segmentation's range image (computed there anyway, at full resolution): the mean of
+  /// the point normals in each voxel. A voxel whose point normals disagree (an edge, a corner, foliage: length of the
+  /// mean below this) gets none, i.e. an isotropic covariance. 0: PCA of the normal_k_neighbors nearest voxel
+  /// centroids instead (Ren 2019, Eq. 2; also the fallback when the segmentation failed).
+  double range_image_normal_coherence = 0.8;
   int num_threads = 2;            ///< threads for the normal estimation
   SegmentationConfig segmentation;  ///< its own range limits are overridden by min_range / max_range
 
