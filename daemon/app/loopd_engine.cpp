@@ -100,7 +100,7 @@ void LoopdEngine::submit(Job job) {
   } else {
     // Live. The sequential stage far behind (a long verification): wait for it rather than pile up keyframes; the
     // LCM thread keeps receiving into its own bounded input queue meanwhile.
-    space_cv_.wait(lock, [&] { return ready_backlog_.load() < kReadyFactor * config_.queue_capacity || stopping_; });
+    space_cv_.wait(lock, [&] { return ready_backlog_.load() < ready_capacity() || stopping_; });
   }
   if (!config_.block_when_full && static_cast<int>(queue_.size()) >= config_.queue_capacity) {
     // Load shedding (live): the oldest waiting keyframe keeps its pose but skips features and verification.

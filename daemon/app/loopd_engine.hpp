@@ -82,13 +82,13 @@ class LoopdEngine {
   };
   void handle_associated(std::vector<AssociatedScan> scans);
   void submit(Job job);
-  /// No room for another keyframe (queue_mutex_ held): queue_capacity raw scans wait for a worker, or 4x that many
-  /// finished keyframes (features only, ~0.1 MB each) wait for the sequential stage. The second bound is wider so
-  /// that the workers keep going while one long verification runs, and still keeps memory bounded.
-  static constexpr int kReadyFactor = 4;
-  bool full() const {
-    return static_cast<int>(queue_.size()) >= config_.queue_capacity || ready_backlog_.load() >= kReadyFactor * config_.queue_capacity;
-  }
+  /// Finished keyframes that may wait for the sequential stage: replay allows 16x queue_capacity (features only,
+  /// ~0.1 MB each, and kept afterwards anyway) so the workers run ahead through a stretch of long verifications; live
+  /// allows 4x, which bounds how far decisions lag behind the stream.
+  int ready_capacity() const { return (config_.block_when_full ? 16 : 4) * config_.queue_capacity; }
+  /// No room for another keyframe (queue_mutex_ held): queue_capacity raw scans wait for a worker, or ready_capacity()
+  /// finished keyframes wait for the sequential stage.
+  bool full() const { return static_cast<int>(queue_.size()) >= config_.queue_capacity || ready_backlog_.load() >= ready_capacity(); }
   void worker_loop();
   void complete(std::int64_t id, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features);
 
