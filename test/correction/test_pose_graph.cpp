@@ -222,7 +222,7 @@ TEST_CASE("graph: odometry step information (covariance) decides where the loop 
   CHECK(t < 0.1);
 }
 
-TEST_CASE("heuristic+graph online: the graph is re-solved at most once per graph_interval keyframes, at once when far off") {
+TEST_CASE("heuristic+graph online: the graph is re-solved at most once per max(graph_interval, 2% of the keyframes), at once when far off") {
   const Scenario s = make_scenario(900, 5);
   std::vector<LoopConstraint> loops = find_ground_truth_loops(s.gt, 1.0, 100, 1, 0);  // every revisiting pose
   std::sort(loops.begin(), loops.end(), [](const LoopConstraint& a, const LoopConstraint& b) {
@@ -230,9 +230,10 @@ TEST_CASE("heuristic+graph online: the graph is re-solved at most once per graph
   });
   REQUIRE(loops.size() >= 20);
 
-  auto online = [&](int interval, int* solved, int* deferred) {
+  auto online = [&](int min_interval, double fraction, int* solved, int* deferred) {
     LoopCorrectorConfig cfg;
-    cfg.graph_interval = interval;
+    cfg.graph_interval = min_interval;
+    cfg.graph_interval_fraction = fraction;
     LoopCorrector c(cfg);
     std::size_t next = 0;
     int last_solved = -1;
@@ -241,6 +242,7 @@ TEST_CASE("heuristic+graph online: the graph is re-solved at most once per graph
       for (; next < loops.size() && std::max(loops[next].query_index, loops[next].match_index) == i; ++next) {
         const CorrectionResult r = c.add_loop(loops[next]);
         REQUIRE(r.ok);
+        const int interval = std::max(min_interval, static_cast<int>(fraction * (i + 1)));
         const bool far_off = r.start_translation_error > cfg.graph_now_translation || r.start_rotation_error > cfg.graph_now_rotation_deg * kDeg;
         INFO("loop ending at " << i << ": " << r.start_translation_error << " m off before, deferred " << r.graph_deferred);
         if (next == 0) CHECK(far_off);  // the first loop of the drive: odometry drift
@@ -261,8 +263,9 @@ TEST_CASE("heuristic+graph online: the graph is re-solved at most once per graph
   };
   int solved = 0, deferred = 0, solved_every = 0, deferred_every = 0;
   const TrajectoryError before = trajectory_error(s.odom.poses, s.gt);
-  const TrajectoryError every = trajectory_error(online(1, &solved_every, &deferred_every), s.gt);
-  const TrajectoryError spaced = trajectory_error(online(5, &solved, &deferred), s.gt);
+  const TrajectoryError every = trajectory_error(online(1, 0.0, &solved_every, &deferred_every), s.gt);
+  const LoopCorrectorConfig defaults;
+  const TrajectoryError spaced = trajectory_error(online(defaults.graph_interval, defaults.graph_interval_fraction, &solved, &deferred), s.gt);
   INFO("loops " << loops.size() << ": solved " << solved << ", deferred " << deferred << "; mean " << before.mean_closest << " -> "
                 << spaced.mean_closest << " (graph on every loop " << every.mean_closest << ")");
   CHECK(deferred_every == 0);

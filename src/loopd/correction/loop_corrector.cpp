@@ -34,6 +34,7 @@ std::optional<std::string> LoopCorrectorConfig::validate() const {
   if (auto e = heuristic.validate()) return "heuristic: " + *e;
   if (auto e = graph.validate()) return "graph: " + *e;
   if (graph_interval < 1) return "graph_interval must be >= 1";
+  if (!(graph_interval_fraction >= 0.0 && graph_interval_fraction <= 1.0)) return "graph_interval_fraction must be in [0, 1]";
   if (!(graph_now_translation >= 0.0) || !(graph_now_rotation_deg >= 0.0)) return "graph_now_translation and graph_now_rotation_deg must be >= 0";
   return std::nullopt;
 }
@@ -99,7 +100,8 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
   std::tie(r.start_translation_error, r.start_rotation_error) = loop_end_error(corrected_, loop);
   const bool far_off = r.start_translation_error > config_.graph_now_translation ||
                        r.start_rotation_error > config_.graph_now_rotation_deg * kDegToRad;
-  const bool graph_due = last_graph_index_ < 0 || e - last_graph_index_ >= config_.graph_interval || far_off;
+  const int interval = std::max(config_.graph_interval, static_cast<int>(config_.graph_interval_fraction * static_cast<double>(n)));
+  const bool graph_due = last_graph_index_ < 0 || e - last_graph_index_ >= interval || far_off;
   // Online case: apply the new loop to the current corrected state; closed spans keep earlier loops closed.
   std::vector<Eigen::Isometry3d> warm = corrected_;
   const std::vector<double> base = edge_weights(odometry_, residuals_, config_.heuristic);

@@ -26,10 +26,12 @@ struct LoopCorrectorConfig {
   HeuristicCorrectionConfig heuristic;
   PoseGraphConfig graph;
   /// heuristic+graph, online: the pose graph (whose cost grows with the trajectory) is re-solved at most once per
-  /// this many keyframes; loops in between are closed by the heuristic alone and join the next solve. A loop the
-  /// corrected map misses by more than graph_now_translation or graph_now_rotation_deg (typically the first loop of a
-  /// revisit) is solved at once. 1: solve on every loop.
+  /// max(graph_interval, graph_interval_fraction x keyframes) keyframes, so its share of the work stays flat on long
+  /// drives; loops in between are closed by the heuristic alone and join the next solve. A loop the corrected map
+  /// misses by more than graph_now_translation or graph_now_rotation_deg (typically the first loop of a revisit) is
+  /// solved at once. 1 and 0: solve on every loop.
   int graph_interval = 5;
+  double graph_interval_fraction = 0.02;
   double graph_now_translation = 1.0;  ///< [m]
   double graph_now_rotation_deg = 3.0; ///< [deg]
   std::optional<std::string> validate() const;
