@@ -161,8 +161,8 @@ void LoopdEngine::complete(std::int64_t id, KeyframeInput input, std::shared_ptr
       std::lock_guard<std::mutex> q(queue_mutex_);  // a blocked submit() may now have room
     }
     space_cv_.notify_one();
-    DetectorOutput out = detector_.add_keyframe(item.first, item.second);
-    for (const auto& d : out.decisions) sink_->on_decision(d);
+    // Each decision goes out as soon as it is made; an accepted loop's correction follows.
+    DetectorOutput out = detector_.add_keyframe(item.first, item.second, [this](const LoopDecision& d) { sink_->on_decision(d); });
     if (out.correction) sink_->on_correction(*out.correction);
     {
       std::lock_guard<std::mutex> s(stats_mutex_);

@@ -75,16 +75,18 @@ CorrectionResult LoopCorrector::run_graph(std::vector<Eigen::Isometry3d> warm, C
   return r;
 }
 
+std::optional<std::string> LoopCorrector::check_loop(const LoopConstraint& loop) const {
+  const int n = static_cast<int>(odometry_.size());
+  if (loop.query_index < 0 || loop.match_index < 0 || loop.query_index >= n || loop.match_index >= n) return "loop index out of range";
+  if (loop.query_index == loop.match_index) return "zero-length loop (query == match)";
+  return std::nullopt;
+}
+
 CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
   CorrectionResult r;
   r.method = config_.method;
-  const int n = static_cast<int>(odometry_.size());
-  if (loop.query_index < 0 || loop.match_index < 0 || loop.query_index >= n || loop.match_index >= n) {
-    r.reason = "loop index out of range";
-    return r;
-  }
-  if (loop.query_index == loop.match_index) {
-    r.reason = "zero-length loop (query == match)";
+  if (auto why = check_loop(loop)) {
+    r.reason = *why;
     return r;
   }
   loops_.push_back(loop);
@@ -100,7 +102,7 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
   std::tie(r.start_translation_error, r.start_rotation_error) = loop_end_error(corrected_, loop);
   const bool far_off = r.start_translation_error > config_.graph_now_translation ||
                        r.start_rotation_error > config_.graph_now_rotation_deg * kDegToRad;
-  const int interval = std::max(config_.graph_interval, static_cast<int>(config_.graph_interval_fraction * static_cast<double>(n)));
+  const int interval = std::max(config_.graph_interval, static_cast<int>(config_.graph_interval_fraction * static_cast<double>(odometry_.size())));
   const bool graph_due = last_graph_index_ < 0 || e - last_graph_index_ >= interval || far_off;
   // Online case: apply the new loop to the current corrected state; closed spans keep earlier loops closed.
   std::vector<Eigen::Isometry3d> warm = corrected_;

@@ -72,6 +72,8 @@ class LoopCorrector {
   /// @brief Stores the loop and re-corrects the whole trajectory. Zero-length loops and bad indices are rejected
   /// (ok = false, nothing changes); the same keyframe pair twice is accepted (the graph averages them).
   CorrectionResult add_loop(const LoopConstraint& loop);
+  /// @brief Why add_loop() would refuse this loop (zero length, index out of range), or nothing when it would take it.
+  std::optional<std::string> check_loop(const LoopConstraint& loop) const;
 
   /// @brief Adds a ground/roadway plane seen from a keyframe (Ren 2019, Sec. 3.4.2); used by the graph methods when
   /// config.graph.use_plane_constraints is set, from the next correction on.

@@ -96,7 +96,8 @@ LoopDecision LoopDetector::make_decision(const KeyframeInput& q, const StoredKey
   return d;
 }
 
-DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features) {
+DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
+                                          const std::function<void(const LoopDecision&)>& on_decided) {
   DetectorOutput out;
   if (!keyframes_.empty()) travelled_ += (keyframes_.back().input.T_odom_sensor.inverse() * input.T_odom_sensor).translation().norm();
   if (features && !features->ok) features.reset();
@@ -148,6 +149,7 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
       d.reason = "descriptor distance above threshold";
       ++loops_rejected_;
       out.decisions.push_back(d);
+      if (on_decided) on_decided(d);
     }
     const bool guided = input.id - last_accepted_id_ <= config_.guided_window;
     // One candidate's verification; reads nothing that changes while it runs (the guess is computed up front).
@@ -195,15 +197,6 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
       d.ms_hungarian = v.ms_hungarian;
       d.ms_total = v.ms_total + features->ms_descriptor;
       d.status = v.accepted ? LoopStatus::kAccepted : LoopStatus::kRejected;
-      out.decisions.push_back(d);
-      if (!v.accepted) {
-        ++loops_rejected_;
-        continue;
-      }
-      ++loops_accepted_;
-      last_accepted_id_ = input.id;
-      travelled_at_last_loop_ = travelled_;
-      Stopwatch sw;
       LoopConstraint loop;
       loop.query_index = static_cast<int>(input.id);
       loop.match_index = static_cast<int>(r.kf->input.id);
@@ -213,11 +206,21 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
       loop.information.bottomRightCorner<3, 3>() = v.information.topLeftCorner<3, 3>();
       loop.information.topRightCorner<3, 3>() = v.information.bottomLeftCorner<3, 3>();
       loop.information.bottomLeftCorner<3, 3>() = v.information.topRightCorner<3, 3>();
-      const CorrectionResult cr = corrector_.add_loop(loop);
-      if (!cr.ok) {
-        out.decisions.back().reason = "accepted, but the correction refused the loop: " + cr.reason;
-        break;
+      const std::optional<std::string> refused = v.accepted ? corrector_.check_loop(loop) : std::nullopt;
+      if (refused) d.reason = "accepted, but the correction refused the loop: " + *refused;
+      out.decisions.push_back(d);
+      if (on_decided) on_decided(d);  // before the correction: the event need not wait for the pose graph
+      if (!v.accepted) {
+        ++loops_rejected_;
+        continue;
       }
+      ++loops_accepted_;
+      last_accepted_id_ = input.id;
+      travelled_at_last_loop_ = travelled_;
+      if (refused) break;
+      Stopwatch sw;
+      const CorrectionResult cr = corrector_.add_loop(loop);
+      if (!cr.ok) break;  // check_loop() said it would take it; nothing else refuses
       CorrectionOutput c;
       c.revision = ++revision_;
       c.loop_event_id = d.event_id;

@@ -1,5 +1,6 @@
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -117,7 +118,10 @@ class LoopDetector {
   KeyframeFeatures compute_features(const PointCloud& scan) const;
   /// @brief Adds a keyframe. `features` may be null when the keyframe was shed under load: its pose still
   ///        enters the trajectory but it is neither a query nor a candidate.
-  DetectorOutput add_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features);
+  /// @param on_decided called with each decision as soon as it is made, before an accepted loop's correction runs
+  ///        (so a loop event need not wait for the pose graph); the decisions are also in the returned output.
+  DetectorOutput add_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
+                              const std::function<void(const LoopDecision&)>& on_decided = {});
 
   /// @brief Corrected pose of an odometry pose received after the newest keyframe.
   Eigen::Isometry3d T_map_odom() const;
