@@ -274,3 +274,25 @@ TEST_CASE("heuristic+graph online: the graph is re-solved at most once per max(g
   CHECK(before.mean_closest / spaced.mean_closest >= 2.0);
   CHECK(spaced.mean_closest <= every.mean_closest * 1.15);
 }
+
+TEST_CASE("graph: with a loop at every revisiting keyframe, the decimated graph matches the full graph") {
+  const Scenario s = make_scenario(900, 5);
+  const std::vector<LoopConstraint> loops = find_ground_truth_loops(s.gt, 1.0, 100, 1, 0);  // dense: every revisit
+  REQUIRE(loops.size() * 2 >= 450);  // loop ends on half the keyframes or more: the chain reduction alone gives up
+  const auto warm = correct_heuristic_all(s.odom.poses, s.odom.residuals, loops, {});
+  PoseGraphConfig full;
+  full.loop_end_stride = 1;
+  const auto a = optimize_pose_graph(s.odom.poses, s.odom.residuals, loops, warm, {});
+  const auto b = optimize_pose_graph(s.odom.poses, s.odom.residuals, loops, warm, full);
+  const TrajectoryError before = trajectory_error(s.odom.poses, s.gt), ea = trajectory_error(a.poses, s.gt), eb = trajectory_error(b.poses, s.gt);
+  INFO("loops " << loops.size() << "; mean " << before.mean_closest << " -> decimated " << ea.mean_closest << " m (" << a.ms << " ms), full "
+                << eb.mean_closest << " m (" << b.ms << " ms)");
+  CHECK(max_position_difference(a.poses, b.poses) < 0.15);
+  CHECK(ea.mean_closest <= eb.mean_closest * 1.1 + 0.02);
+  CHECK(ea.ate_rmse <= eb.ate_rmse * 1.1 + 0.02);
+  for (const auto& l : loops) {  // loop ends still meet, through a few steps of odometry
+    const auto [t, r] = loop_end_error(a.poses, l);
+    CHECK(t < 0.15);
+    CHECK(r < 0.5 * kDeg);
+  }
+}

@@ -22,6 +22,7 @@ std::optional<std::string> PoseGraphConfig::validate() const {
   if (!(graduated_start_factor >= 1.0)) return "graduated_start_factor must be >= 1";
   if (!(plane_normal_sigma > 0.0) || !(plane_distance_sigma > 0.0)) return "plane sigmas must be > 0";
   if (chain_stride < 0) return "chain_stride must be >= 0";
+  if (loop_end_stride < 1) return "loop_end_stride must be >= 1";
   if (max_iterations < 1) return "max_iterations must be >= 1";
   if (num_threads < 1) return "num_threads must be >= 1";
   if (auto err = weights.validate()) return "weights: " + *err;
@@ -325,13 +326,32 @@ PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odomet
       if (o.index >= 0 && o.index < static_cast<int>(n)) anchors.push_back(o.index);
   std::sort(anchors.begin(), anchors.end());
   anchors.erase(std::unique(anchors.begin(), anchors.end()), anchors.end());
-  const bool reduce = config.reduce_chains && anchors.size() * 2 < n;
-  if (!reduce) {
+  bool reduce = config.reduce_chains && anchors.size() * 2 < n;
+  // Dense loop ends: every loop_end_stride-th keyframe (and the last) is a node; loop ends and plane observations
+  // are moved to their nearest node below.
+  const bool decimate = config.reduce_chains && !reduce && config.loop_end_stride > 1 && n > 2 * static_cast<std::size_t>(config.loop_end_stride);
+  if (decimate) {
+    anchors.clear();
+    for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(config.loop_end_stride)) anchors.push_back(static_cast<int>(i));
+    if (anchors.back() != static_cast<int>(n) - 1) anchors.push_back(static_cast<int>(n) - 1);
+    reduce = true;
+  } else if (!reduce) {
     anchors.resize(n);
     for (std::size_t i = 0; i < n; ++i) anchors[i] = static_cast<int>(i);
   }
   std::vector<int> node_of(n, -1);
   for (std::size_t k = 0; k < anchors.size(); ++k) node_of[static_cast<std::size_t>(anchors[k])] = static_cast<int>(k);
+  // Nearest node of every keyframe (itself when it is one).
+  std::vector<int> nearest_node(n, 0);
+  for (std::size_t k = 0; k < anchors.size(); ++k) {
+    const auto a = static_cast<std::size_t>(anchors[k]);
+    const std::size_t b = k + 1 < anchors.size() ? static_cast<std::size_t>(anchors[k + 1]) : n;
+    for (std::size_t i = a; i < b; ++i) nearest_node[i] = (k + 1 < anchors.size() && i - a > b - i) ? static_cast<int>(k + 1) : static_cast<int>(k);
+  }
+  // Odometry from keyframe i to its node (identity for a node).
+  auto to_node = [&](std::size_t i) {
+    return odometry_poses[i].inverse() * odometry_poses[static_cast<std::size_t>(anchors[static_cast<std::size_t>(nearest_node[i])])];
+  };
 
   std::vector<Edge> edges;
   // Odometry chain between consecutive anchors a < b, composed: Z_ab = Z_{a+1} ... Z_b; its covariance propagated
@@ -356,10 +376,14 @@ PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odomet
     edges.push_back(e);
   }
   for (const LoopConstraint* l : valid_loops) {
+    const auto m = static_cast<std::size_t>(l->match_index), q = static_cast<std::size_t>(l->query_index);
     Edge e;
-    e.a = node_of[static_cast<std::size_t>(l->match_index)];
-    e.b = node_of[static_cast<std::size_t>(l->query_index)];
-    e.Z = l->T_match_query;
+    e.a = nearest_node[m];
+    e.b = nearest_node[q];
+    if (e.a == e.b) continue;  // both ends on one node (a loop over fewer than loop_end_stride keyframes)
+    // Z between the nodes: node_m <- m by odometry, m <- q by the loop, q <- node_q by odometry (a few steps, taken
+    // as exact next to the loop's own uncertainty).
+    e.Z = to_node(m).inverse() * l->T_match_query * to_node(q);
     e.sqrt_info = loop_sqrt_info(l->information, config);
     e.robust = true;
     edges.push_back(e);
@@ -368,7 +392,15 @@ PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odomet
   for (const PlaneObservation& o : planes)
     if (o.index >= 0 && o.index < static_cast<int>(n)) {
       PlaneObservation m = o;
-      m.index = node_of[static_cast<std::size_t>(o.index)];
+      const auto i = static_cast<std::size_t>(o.index);
+      m.index = nearest_node[i];
+      if (static_cast<std::size_t>(anchors[static_cast<std::size_t>(m.index)]) != i) {
+        // The plane seen from keyframe i, expressed in its node's frame: n' = R^T n, d' = d + n . t for T = T_i_node.
+        const Eigen::Isometry3d T = to_node(i);
+        const Eigen::Vector3d nrm = o.plane_sensor.head<3>();
+        m.plane_sensor.head<3>() = T.linear().transpose() * nrm;
+        m.plane_sensor.w() = o.plane_sensor.w() + nrm.dot(T.translation());
+      }
       node_planes.push_back(m);
     }
 

@@ -58,11 +58,16 @@ struct PoseGraphConfig {
   /// Solve only the keyframes that carry more than odometry (first pose, loop ends, plane observations) with the
   /// odometry chains between them composed into one edge each (covariance propagated); the chains are then filled in
   /// with the heuristic's shares. Exact for the chain's least-squares problem to first order, and 10-100x faster.
-  /// Off (or when more than a third of the keyframes are anchors): the full graph with one edge per keyframe step.
+  /// Off: the full graph with one edge per keyframe step.
   bool reduce_chains = true;
   /// With reduce_chains, also keep every chain_stride-th keyframe as a node (0: loop ends only), so long chains
   /// bend like the full graph; ~n/chain_stride nodes.
   int chain_stride = 30;
+  /// With reduce_chains, when loop ends are dense (half the keyframes or more: consecutive keyframes of a revisit
+  /// all close loops), the nodes are every loop_end_stride-th keyframe instead and each loop end moves to the
+  /// nearest node through its (at most loop_end_stride / 2 steps of) odometry, so the graph stays ~n/loop_end_stride
+  /// nodes on long drives. 1: the full graph in that case.
+  int loop_end_stride = 2;
 
   int max_iterations = 50;
   double function_tolerance = 1e-8;
