@@ -11,9 +11,9 @@
 #include <lcm/lcm-cpp.hpp>
 #include <mutex>
 #include <thread>
+#include <variant>
 
 #include <pthread.h>
-#include <variant>
 
 #include "lcm_log.hpp"
 #include "message_convert.hpp"

@@ -22,7 +22,7 @@ struct EngineConfig {
   AssociationConfig association;
   LoopDetectorConfig detector;
   int num_threads = 0;                   ///< feature/verification workers; 0 = hardware threads
-  int queue_capacity = 16;               ///< keyframes waiting for a worker (4x this may wait for the sequential stage)
+  int queue_capacity = 16;               ///< keyframes waiting for a worker (see ready_capacity() for the sequential stage)
   bool block_when_full = false;          ///< replay: wait for workers; live: shed (see README "Load shedding")
   std::int64_t max_points_per_scan = 2000000;  ///< larger scans are rejected as invalid
   std::optional<std::string> validate() const;
@@ -114,7 +114,7 @@ class LoopdEngine {
   std::mutex sequence_mutex_;
   std::map<std::int64_t, std::pair<KeyframeInput, std::shared_ptr<const KeyframeFeatures>>> ready_;
   bool sequencing_ = false;
-  std::atomic<int> ready_backlog_{0};  ///< ready_.size(), readable without sequence_mutex_ (counts against the queue)
+  std::atomic<int> ready_backlog_{0};  ///< ready_.size(), readable without sequence_mutex_ (bounded by ready_capacity())
   std::int64_t next_to_sequence_ = 0;
   std::condition_variable done_cv_;
   std::mutex done_mutex_;
