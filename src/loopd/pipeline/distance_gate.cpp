@@ -2,8 +2,21 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace loopd {
+
+namespace {
+
+/// @brief Hash key of ground-plane cell (ix, iy): ix in the high 32 bits, the low 32 bits of iy xor-ed in. Shifted as
+/// unsigned (a left shift of a negative signed value is undefined before C++20; UBSan reported it for cells at x < 0);
+/// the same bits as the signed (ix << 32) ^ (iy & 0xffffffff) for every ix >= 0.
+std::int64_t cell_key(std::int64_t ix, std::int64_t iy) {
+  const std::uint64_t bits = (static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffULL);
+  return static_cast<std::int64_t>(bits);
+}
+
+}  // namespace
 
 std::optional<std::string> DistanceGateConfig::validate() const {
   if (!(travel_fraction > 0.0)) return "gate.travel_fraction must be > 0";
@@ -23,7 +36,7 @@ DistanceGate::CellKey DistanceGate::key(const Eigen::Vector3d& p) const {
   const double cell = config_.max_radius;
   const std::int64_t ix = static_cast<std::int64_t>(std::floor(p.x() / cell));
   const std::int64_t iy = static_cast<std::int64_t>(std::floor(p.y() / cell));
-  return (ix << 32) ^ (iy & 0xffffffffLL);
+  return cell_key(ix, iy);
 }
 
 void DistanceGate::add(const GateEntry& entry) {
@@ -48,7 +61,7 @@ std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, doub
   const std::int64_t cy = static_cast<std::int64_t>(std::floor(query.position.y() / cell));
   for (std::int64_t dx = -1; dx <= 1; ++dx) {
     for (std::int64_t dy = -1; dy <= 1; ++dy) {
-      const auto it = cells_.find(((cx + dx) << 32) ^ ((cy + dy) & 0xffffffffLL));
+      const auto it = cells_.find(cell_key(cx + dx, cy + dy));
       if (it == cells_.end()) continue;
       for (std::size_t i : it->second) {
         const GateEntry& e = entries_[i];
