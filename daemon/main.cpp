@@ -16,13 +16,15 @@ void print_summary(const loopd::RunSummary& s, bool replay) {
   const auto& e = s.engine;
   std::fprintf(stderr,
                "loopd: %s finished in %.1f s%s: scans %lld, poses %lld, keyframes %lld, loops accepted %lld, rejected %lld; "
-               "malformed %lld, invalid scans %lld, scans without pose %lld, shed %lld, dropped %lld\n",
+               "malformed %lld, invalid scans %lld, scans without pose %lld, shed %lld, dropped %lld; scans lost (estimated) %lld, "
+               "clock jumps %lld, odometry resets %lld, sensor changes %lld\n",
                replay ? "replay" : "live run", s.seconds,
                replay && s.seconds > 0 ? (" (" + std::to_string(s.data_seconds / s.seconds).substr(0, 5) + "x real time)").c_str() : "",
                static_cast<long long>(s.scans_received), static_cast<long long>(s.poses_received), static_cast<long long>(e.keyframes),
                static_cast<long long>(e.loops_accepted), static_cast<long long>(e.loops_rejected), static_cast<long long>(s.malformed),
                static_cast<long long>(e.invalid_scans), static_cast<long long>(e.dropped_no_pose), static_cast<long long>(e.shed),
-               static_cast<long long>(s.dropped_input));
+               static_cast<long long>(s.dropped_input), static_cast<long long>(e.scans_lost_estimate), static_cast<long long>(e.clock_jumps),
+               static_cast<long long>(e.odometry_resets), static_cast<long long>(e.sensor_changes));
 }
 }  // namespace
 

@@ -195,6 +195,8 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("threads", e.num_threads);
   b.field("queue_capacity", e.queue_capacity);
   b.field("max_points_per_scan", e.max_points_per_scan);
+  b.field("input.clock_jump", e.clock_jump);
+  b.field("input.max_odometry_speed", e.max_odometry_speed);
   b.field("association.tolerance", e.association.tolerance);
   b.field("association.hold_time", e.association.hold_time);
   b.field("association.max_pending_scans", e.association.max_pending_scans);

@@ -15,6 +15,7 @@
 
 #include <pthread.h>
 
+#include "bounded_decode.hpp"
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
 #include "output_messages.hpp"
@@ -71,83 +72,155 @@ class OutputSink : public EngineSink {
   std::int64_t last_data_utime_ = 0;
 };
 
-/// Decoded input waiting for the ingest thread.
+/// Decoded input waiting for the ingest thread, with the time it arrived (wall clock live, logger time in replay).
 struct Input {
   std::variant<point_cloud_t, pose_t> msg;
+  double arrival_s = 0.0;
 };
 
-/// Subscribes to the scan and pose channels; decodes and counts; hands messages to `deliver`.
+/// Subscribes to the scan and pose channels; decodes with decode_bounded (every byte is hostile: LCM is
+/// unauthenticated multicast) and counts; hands messages to `deliver`. Nothing thrown escapes into LCM.
 class InputHandler {
  public:
-  InputHandler(const NodeConfig& node) : node_(node) {
+  InputHandler(const NodeConfig& node, const DecodeLimits& limits) : node_(node), limits_(limits) {
     scan_.channel = node.scan_channel;
     pose_.channel = node.pose_channel;
   }
   std::function<bool(Input&&)> deliver;  // returns false when the input had to be dropped
 
-  void on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+  void on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& channel) { on_bytes(rbuf->data, rbuf->data_size, channel, wall_s()); }
+
+  void on_bytes(const void* data, std::size_t size, const std::string& channel, double arrival_s) noexcept {
+    try {
+      handle(data, size, channel, arrival_s);
+    } catch (const std::exception& e) {  // bad_alloc on a scan within the caps but beyond free memory, ...
+      count_malformed(channel, std::string("could not handle a message: ") + e.what());
+    } catch (...) {
+      count_malformed(channel, "could not handle a message");
+    }
+  }
+
+  ChannelCounters scan_, pose_;
+  std::mutex counters_mutex_;  ///< guards scan_ and pose_ (LCM thread, ingest thread, status)
+
+ private:
+  void handle(const void* data, std::size_t size, const std::string& channel, double arrival_s) {
     const bool is_scan = channel == node_.scan_channel;
-    ChannelCounters& c = is_scan ? scan_ : pose_;
-    ++c.received;
+    {
+      std::lock_guard<std::mutex> lock(counters_mutex_);
+      ++(is_scan ? scan_ : pose_).received;
+    }
     Input in;
-    int rc = -1;
+    in.arrival_s = arrival_s;
+    DecodeResult r;
     if (is_scan) {
       point_cloud_t m;
-      rc = m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
-      if (rc >= 0) in.msg = std::move(m);
+      r = decode_bounded(data, size, limits_, &m);
+      if (r.ok) in.msg = std::move(m);
     } else {
       pose_t m;
-      rc = m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
-      if (rc >= 0) in.msg = m;
+      r = decode_bounded(data, size, limits_, &m);
+      if (r.ok) in.msg = m;
     }
-    if (rc < 0) {
-      ++c.malformed;
-      log_anomaly("could not decode a message on " + channel + " (" + std::to_string(rbuf->data_size) + " bytes)", c.malformed, node_.log_every_n);
+    if (!r.ok) {
+      count_malformed(channel, "could not decode a " + std::to_string(size) + "-byte message: " + r.reason + " at byte " + std::to_string(r.offset));
       return;
     }
     if (deliver && !deliver(std::move(in))) {
-      ++c.dropped;
-      log_anomaly("input queue full, dropped a message on " + channel, c.dropped, node_.log_every_n);
+      std::int64_t dropped = 0;
+      {
+        std::lock_guard<std::mutex> lock(counters_mutex_);
+        dropped = ++(is_scan ? scan_ : pose_).dropped;
+      }
+      log_anomaly("input queue full, dropped a message on " + channel, dropped, node_.log_every_n);
     }
   }
-  ChannelCounters scan_, pose_;
-  std::mutex counters_mutex_;
+  void count_malformed(const std::string& channel, const std::string& what) {
+    std::int64_t malformed = 0;
+    {
+      std::lock_guard<std::mutex> lock(counters_mutex_);
+      malformed = ++(channel == node_.scan_channel ? scan_ : pose_).malformed;
+    }
+    log_anomaly(what + " on " + channel, malformed, node_.log_every_n);
+  }
 
- private:
   const NodeConfig& node_;
+  DecodeLimits limits_;
 };
 
 /// Converts one decoded input and feeds the engine; counts conversion failures as malformed.
-void ingest(LoopdEngine& engine, InputHandler& h, Input& in, const NodeConfig& node, double now, std::int64_t* last_data_utime) {
+void ingest(LoopdEngine& engine, InputHandler& h, Input& in, const NodeConfig& node, std::int64_t* last_data_utime) {
   std::string error;
   if (auto* scan = std::get_if<point_cloud_t>(&in.msg)) {
     PointCloud cloud;
-    std::lock_guard<std::mutex> lock(h.counters_mutex_);
     if (!from_message(*scan, &cloud, &error)) {
-      ++h.scan_.malformed;
-      log_anomaly("rejected a scan on " + node.scan_channel + ": " + error, h.scan_.malformed, node.log_every_n);
+      std::int64_t n = 0;
+      {
+        std::lock_guard<std::mutex> lock(h.counters_mutex_);
+        n = ++h.scan_.malformed;
+      }
+      log_anomaly("rejected a scan on " + node.scan_channel + ": " + error, n, node.log_every_n);
       return;
     }
     *last_data_utime = std::max(*last_data_utime, scan->utime);
-    if (engine.push_scan(scan->utime, std::move(cloud), now))
+    if (engine.push_scan(scan->utime, std::move(cloud), in.arrival_s)) {
+      std::lock_guard<std::mutex> lock(h.counters_mutex_);
       ++h.scan_.accepted;
-    else
+    } else {
       log_anomaly("rejected a scan at utime " + std::to_string(scan->utime) + ": empty, all non-finite, too large, or duplicate/out-of-order utime",
                   engine.stats().invalid_scans, node.log_every_n);
+    }
   } else if (auto* pose = std::get_if<pose_t>(&in.msg)) {
     StampedPose p;
-    std::lock_guard<std::mutex> lock(h.counters_mutex_);
     if (!from_message(*pose, &p, &error)) {
-      ++h.pose_.malformed;
-      log_anomaly("rejected a pose on " + node.pose_channel + ": " + error, h.pose_.malformed, node.log_every_n);
+      std::int64_t n = 0;
+      {
+        std::lock_guard<std::mutex> lock(h.counters_mutex_);
+        n = ++h.pose_.malformed;
+      }
+      log_anomaly("rejected a pose on " + node.pose_channel + ": " + error, n, node.log_every_n);
       return;
     }
     *last_data_utime = std::max(*last_data_utime, pose->utime);
-    if (engine.push_pose(p, now))
+    if (engine.push_pose(p, in.arrival_s)) {
+      std::lock_guard<std::mutex> lock(h.counters_mutex_);
       ++h.pose_.accepted;
-    else
+    } else {
       log_anomaly("rejected a pose with a duplicate or out-of-order utime " + std::to_string(pose->utime), engine.stats().invalid_poses, node.log_every_n);
+    }
   }
+}
+
+/// Says once per kind what the input-health counters show: scan loss past 1 %, clock jumps, odometry resets,
+/// sensor changes (each logged on its 1st, (N+1)th, ... occurrence like other anomalies).
+class InputHealthLog {
+ public:
+  void update(const EngineStats& s, int every) {
+    if (!loss_warned_ && s.scan_loss_fraction > 0.01 && s.scans_in + s.scans_lost_estimate >= 100) {
+      loss_warned_ = true;
+      std::fprintf(stderr,
+                   "loopd: warning: about %lld scans (%.1f %%) never arrived (gaps in the scan rate). LCM drops a whole message when one UDP "
+                   "fragment is lost: enlarge the receive buffer (see the warning at start) or check the network.\n",
+                   static_cast<long long>(s.scans_lost_estimate), 100.0 * s.scan_loss_fraction);
+    }
+    report("the data clock jumped; following the new time line", s.clock_jumps, &clock_jumps_, every);
+    report("odometry reset (a jump the vehicle cannot have made); the trajectory continues from the last pose", s.odometry_resets,
+           &odometry_resets_, every);
+    report("the sensor layout changed (points per scan or rings)", s.sensor_changes, &sensor_changes_, every);
+  }
+
+ private:
+  static void report(const char* what, std::int64_t now, std::int64_t* seen, int every) {
+    while (*seen < now) log_anomaly(what, ++*seen, every);
+  }
+  bool loss_warned_ = false;
+  std::int64_t clock_jumps_ = 0, odometry_resets_ = 0, sensor_changes_ = 0;
+};
+
+DecodeLimits decode_limits(const EngineConfig& e) {
+  DecodeLimits limits;
+  limits.max_points = e.max_points_per_scan;
+  return limits;
 }
 
 std::vector<ChannelCounters> counters(InputHandler& h, const EngineStats& s) {
@@ -216,7 +289,8 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   EngineConfig live_config = engine_config;
   live_config.detector.parallel_candidates = true;  // spare cores shorten the latency tail; same decisions
   LoopdEngine engine(live_config, &sink);
-  InputHandler handler(node);
+  InputHandler handler(node, decode_limits(engine_config));
+  InputHealthLog health_log;
 
   std::mutex qm;
   std::condition_variable qcv;
@@ -244,12 +318,20 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
         if (done) break;
         batch.swap(queue);
       }
-      for (auto& in : batch) ingest(engine, handler, in, node, wall_s(), &last_data_utime);
+      for (auto& in : batch) {
+        try {
+          ingest(engine, handler, in, node, &last_data_utime);
+        } catch (const std::exception& e) {  // e.g. bad_alloc converting a large scan: skip it, keep running
+          std::lock_guard<std::mutex> lock(handler.counters_mutex_);
+          log_anomaly(std::string("could not process an input message: ") + e.what(), ++handler.scan_.malformed, node.log_every_n);
+        }
+      }
       const double now = wall_s();
       engine.tick(now);
       if (now >= next_status) {
         next_status = now + node.status_period;
         const EngineStats s = engine.stats();
+        health_log.update(s, node.log_every_n);
         sink.publish(node.status_channel, wall_utime(), make_status(wall_utime(), now - start, s, counters(handler, s), resident_memory_bytes()));
       }
     }
@@ -277,17 +359,15 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
 
 int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const std::string& input_log, const std::string& output_log,
                const std::string& publish_url, const std::atomic<bool>& stop, RunSummary* summary) {
-  if (!std::ifstream(input_log)) {
-    std::cerr << "loopd: cannot open replay log " << input_log << std::endl;
-    return 2;
-  }
-  lcm::LCM reader("file://" + input_log + "?speed=0");
-  if (!reader.good()) {
-    std::cerr << "loopd: LCM cannot read " << input_log << std::endl;
+  // loopd's own reader, not LCM's file provider: a damaged event header is skipped and counted instead of ending
+  // the replay, and no length in the file is trusted before it is checked against the file.
+  LogReader reader;
+  std::string error;
+  if (!reader.open(input_log, &error)) {
+    std::cerr << "loopd: " << error << std::endl;
     return 2;
   }
   LogWriter writer;
-  std::string error;
   if (!output_log.empty() && !writer.open(output_log, &error)) {
     std::cerr << "loopd: " << error << std::endl;
     return 2;
@@ -305,27 +385,32 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   config.block_when_full = true;  // replay never sheds: it waits for the workers
   OutputSink sink(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
   LoopdEngine engine(config, &sink);
-  InputHandler handler(node);
+  InputHandler handler(node, decode_limits(engine_config));
+  InputHealthLog health_log;
   std::int64_t last_data_utime = 0, first_data_utime = 0, next_status_utime = 0;
   handler.deliver = [&](Input&& in) {
-    ingest(engine, handler, in, node, wall_s(), &last_data_utime);
+    ingest(engine, handler, in, node, &last_data_utime);
     if (first_data_utime == 0) first_data_utime = last_data_utime;
     if (last_data_utime >= next_status_utime) {
       // Status at the configured period of data time, so the output log is the same on every replay.
       next_status_utime = last_data_utime + static_cast<std::int64_t>(node.status_period * 1e6);
       EngineStats s = engine.stats();
+      health_log.update(s, node.log_every_n);
       sink.publish(node.status_channel, last_data_utime,
                    make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s), resident_memory_bytes()));
     }
     return true;
   };
-  reader.subscribe(node.scan_channel, &InputHandler::on_raw, &handler);
-  reader.subscribe(node.pose_channel, &InputHandler::on_raw, &handler);
-  while (!stop.load()) {
-    if (reader.handle() != 0) break;  // end of the log
+  LogEvent event;
+  while (!stop.load() && reader.next(&event)) {
+    if (event.channel != node.scan_channel && event.channel != node.pose_channel) continue;
+    // The logger's receive time is the arrival clock that data time is checked against (clock jumps).
+    handler.on_bytes(event.data.data(), event.data.size(), event.channel, static_cast<double>(event.timestamp) * 1e-6);
   }
+  if (!reader.problems().empty()) std::cerr << "loopd: " << reader.problems() << " (the rest of the log was read)" << std::endl;
   engine.finish();
   const EngineStats s = engine.stats();
+  health_log.update(s, node.log_every_n);
   sink.publish(node.status_channel, last_data_utime,
                make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s), resident_memory_bytes()));
   fill_summary(summary, engine, handler);
@@ -333,6 +418,7 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
     summary->seconds = wall_s() - start;
     summary->data_seconds = static_cast<double>(last_data_utime - first_data_utime) * 1e-6;
     summary->events_written = sink.written();
+    summary->log_corrupt_headers = reader.stats().corrupt_headers;
   }
   writer.close();
   return 0;

@@ -28,6 +28,7 @@ struct RunSummary {
   EngineStats engine;
   std::int64_t scans_received = 0, poses_received = 0, malformed = 0, dropped_input = 0;
   std::int64_t events_written = 0;
+  std::int64_t log_corrupt_headers = 0;  ///< replay: damaged event headers skipped in the input log
   double seconds = 0.0;
   double data_seconds = 0.0;
 };

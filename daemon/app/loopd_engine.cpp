@@ -1,5 +1,6 @@
 #include "loopd_engine.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <pthread.h>
@@ -13,11 +14,20 @@ std::optional<std::string> EngineConfig::validate() const {
   if (num_threads < 0) return "num_threads must be >= 0 (0 = hardware threads)";
   if (queue_capacity < 1) return "queue_capacity must be >= 1";
   if (max_points_per_scan < 1) return "max_points_per_scan must be >= 1";
+  if (!(clock_jump > 0.0)) return "input.clock_jump must be > 0 [s]";
+  if (!(max_odometry_speed > 0.0)) return "input.max_odometry_speed must be > 0 [m/s]";
   return std::nullopt;
 }
 
 LoopdEngine::LoopdEngine(const EngineConfig& config, EngineSink* sink)
-    : config_(config), sink_(sink), associator_(config.association), selector_(config.detector.keyframe), detector_(config.detector) {
+    : config_(config),
+      sink_(sink),
+      associator_(config.association),
+      scan_clock_(ClockWatch::Config{config.clock_jump, 2}),
+      pose_clock_(ClockWatch::Config{config.clock_jump, 2}),
+      odometry_filter_(OdometryResetFilter::Config{config.max_odometry_speed, 360.0, 2.0}),
+      selector_(config.detector.keyframe),
+      detector_(config.detector) {
   int n = config_.num_threads > 0 ? config_.num_threads : static_cast<int>(std::thread::hardware_concurrency());
   if (n < 1) n = 1;
   stats_.device = detector_.descriptor_device();
@@ -39,36 +49,65 @@ LoopdEngine::~LoopdEngine() {
   for (auto& t : workers_) t.join();
 }
 
-bool LoopdEngine::push_scan(std::int64_t utime, PointCloud cloud, double wall_time_s) {
+bool LoopdEngine::push_scan(std::int64_t utime, PointCloud cloud, double arrival_s) {
   std::size_t finite = 0;
   for (const auto& p : cloud.points) finite += p.allFinite() ? 1 : 0;
+  const bool too_large = static_cast<std::int64_t>(cloud.size()) > config_.max_points_per_scan;
+  const ClockVerdict verdict = (finite == 0 || too_large) ? ClockVerdict::kStale : scan_clock_.check(utime, arrival_s);
+  const bool jumped = verdict == ClockVerdict::kJumpBack || verdict == ClockVerdict::kJumpForward;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.scans_in;
     stats_.nan_points += static_cast<std::int64_t>(cloud.size() - finite);
-    if (finite == 0 || static_cast<std::int64_t>(cloud.size()) > config_.max_points_per_scan) {
+    if (finite == 0 || too_large || verdict == ClockVerdict::kStale) {
       ++stats_.invalid_scans;
       return false;
     }
   }
-  if (!associator_.add_scan(utime, std::move(cloud), wall_time_s)) {
+  if (verdict == ClockVerdict::kJumpBack) associator_.restart_scans();
+  loss_.on_scan(utime, jumped);
+  layout_.on_scan(static_cast<std::int64_t>(cloud.size()), cloud.num_rings);
+  update_input_health();
+  if (!associator_.add_scan(utime, std::move(cloud), arrival_s)) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.invalid_scans;
     return false;
   }
-  handle_associated(associator_.poll(wall_time_s, !config_.block_when_full));
+  handle_associated(associator_.poll(arrival_s, !config_.block_when_full));
   return true;
 }
 
-bool LoopdEngine::push_pose(const StampedPose& pose, double wall_time_s) {
+bool LoopdEngine::push_pose(const StampedPose& raw, double arrival_s) {
+  const ClockVerdict verdict = pose_clock_.check(raw.utime, arrival_s);
+  if (verdict == ClockVerdict::kStale) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.poses_in;
+    ++stats_.invalid_poses;
+    return false;
+  }
+  const bool jumped = verdict == ClockVerdict::kJumpBack || verdict == ClockVerdict::kJumpForward;
+  if (verdict == ClockVerdict::kJumpBack) associator_.restart_poses();
+  if (jumped) odometry_filter_.forget_last();  // times across a jump cannot be compared
+  const StampedPose pose = odometry_filter_.apply(raw);
+  loss_.on_pose(pose.utime, jumped);
+  update_input_health();
   const bool ok = associator_.add_pose(pose);
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.poses_in;
     if (!ok) ++stats_.invalid_poses;
   }
-  handle_associated(associator_.poll(wall_time_s, !config_.block_when_full));
+  handle_associated(associator_.poll(arrival_s, !config_.block_when_full));
   return ok;
+}
+
+void LoopdEngine::update_input_health() {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.scans_lost_estimate = loss_.lost();
+  stats_.scan_loss_fraction = loss_.loss_fraction();
+  stats_.clock_jumps = std::max(scan_clock_.jumps(), pose_clock_.jumps());
+  stats_.odometry_resets = odometry_filter_.resets();
+  stats_.sensor_changes = layout_.changes();
 }
 
 void LoopdEngine::tick(double wall_time_s) { handle_associated(associator_.poll(wall_time_s, !config_.block_when_full)); }

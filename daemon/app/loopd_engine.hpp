@@ -13,7 +13,11 @@
 
 #include "loopd/pipeline/keyframe_selector.hpp"
 #include "loopd/pipeline/loop_detector.hpp"
+#include "clock_watch.hpp"
+#include "odometry_reset_filter.hpp"
+#include "scan_loss_estimator.hpp"
 #include "scan_pose_associator.hpp"
+#include "sensor_layout_watch.hpp"
 
 namespace loopd {
 
@@ -25,6 +29,8 @@ struct EngineConfig {
   int queue_capacity = 16;               ///< keyframes waiting for a worker (see ready_capacity() for the sequential stage)
   bool block_when_full = false;          ///< replay: wait for workers; live: shed (see README "Load shedding")
   std::int64_t max_points_per_scan = 2000000;  ///< larger scans are rejected as invalid
+  double clock_jump = 2.0;               ///< [s] data clock vs arrival clock disagreement that is a clock jump (input.clock_jump)
+  double max_odometry_speed = 60.0;      ///< [m/s] faster apparent odometry motion is an odometry reset (input.max_odometry_speed)
   std::optional<std::string> validate() const;
 };
 
@@ -50,6 +56,11 @@ struct EngineStats {
   int pending_scans = 0;
   std::int64_t loops_accepted = 0, loops_rejected = 0;
   std::int64_t bytes_per_keyframe = 0;
+  std::int64_t scans_lost_estimate = 0;  ///< scans that never arrived (ScanLossEstimator)
+  double scan_loss_fraction = 0.0;       ///< lost / (received + lost)
+  std::int64_t clock_jumps = 0;          ///< data clock jumps followed (scan or pose channel, whichever saw more)
+  std::int64_t odometry_resets = 0;      ///< odometry resets bridged (OdometryResetFilter)
+  std::int64_t sensor_changes = 0;       ///< sensor layout changes (SensorLayoutWatch)
   std::string device;
 };
 
@@ -63,10 +74,11 @@ class LoopdEngine {
   LoopdEngine(const LoopdEngine&) = delete;
   LoopdEngine& operator=(const LoopdEngine&) = delete;
 
-  /// @brief A decoded scan. Returns false (counted) when it is invalid.
-  bool push_scan(std::int64_t utime, PointCloud cloud, double wall_time_s);
-  /// @brief A decoded odometry pose. Returns false (counted) for a duplicate or out-of-order utime.
-  bool push_pose(const StampedPose& pose, double wall_time_s);
+  /// @brief A decoded scan that arrived at `arrival_s` (wall clock live, the logger's receive time in replay).
+  ///        Returns false (counted) when it is invalid: empty, all non-finite, too large, duplicate or stale utime.
+  bool push_scan(std::int64_t utime, PointCloud cloud, double arrival_s);
+  /// @brief A decoded odometry pose. Returns false (counted) for a duplicate or stale utime.
+  bool push_pose(const StampedPose& pose, double arrival_s);
   /// @brief Lets waiting scans time out on the wall clock (live mode).
   void tick(double wall_time_s);
   /// @brief End of input: associates what it can and waits until every keyframe has been processed.
@@ -81,6 +93,7 @@ class LoopdEngine {
     PointCloud cloud;
   };
   void handle_associated(std::vector<AssociatedScan> scans);
+  void update_input_health();
   void submit(Job job);
   /// Finished keyframes that may wait for the sequential stage: replay allows 16x queue_capacity (features only,
   /// ~0.1 MB each, and kept afterwards anyway) so the workers run ahead through a stretch of long verifications; live
@@ -95,6 +108,11 @@ class LoopdEngine {
   EngineConfig config_;
   EngineSink* sink_;
   ScanPoseAssociator associator_;
+  // Input health, all on the ingest thread: clocks per channel, odometry resets, scan loss, sensor layout.
+  ClockWatch scan_clock_, pose_clock_;
+  OdometryResetFilter odometry_filter_;
+  ScanLossEstimator loss_;
+  SensorLayoutWatch layout_;
   KeyframeSelector selector_;
   LoopDetector detector_;
   std::int64_t next_keyframe_id_ = 0;

@@ -85,6 +85,10 @@ status_t make_status(std::int64_t utime, double uptime_s, const EngineStats& s, 
   m.loops_rejected = s.loops_rejected;
   m.memory_bytes = memory_bytes;
   m.device = s.device;
+  m.scans_lost_estimate = s.scans_lost_estimate;
+  m.clock_jumps = s.clock_jumps;
+  m.odometry_resets = s.odometry_resets;
+  m.sensor_changes = s.sensor_changes;
   return m;
 }
 

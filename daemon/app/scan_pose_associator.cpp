@@ -36,6 +36,18 @@ bool ScanPoseAssociator::add_scan(std::int64_t utime, PointCloud cloud, double w
   return true;
 }
 
+void ScanPoseAssociator::restart_scans() {
+  dropped_no_pose_ += static_cast<std::int64_t>(scans_.size());
+  scans_.clear();
+  last_scan_utime_.reset();
+  last_resolved_utime_.reset();
+}
+
+void ScanPoseAssociator::restart_poses() {
+  poses_.clear();
+  last_resolved_utime_.reset();
+}
+
 std::optional<StampedPose> ScanPoseAssociator::pose_at(std::int64_t utime) const {
   if (poses_.empty()) return std::nullopt;
   const auto tol = static_cast<std::int64_t>(config_.tolerance * 1e6);

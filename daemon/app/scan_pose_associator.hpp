@@ -38,6 +38,11 @@ class ScanPoseAssociator {
   bool add_pose(const StampedPose& pose);
   /// @brief Adds a scan; returns false (and counts it) for a duplicate or out-of-order utime.
   bool add_scan(std::int64_t utime, PointCloud cloud, double wall_time_s);
+  /// @brief The scan clock jumped back: pending scans can never be resolved (counted as without pose), and the
+  ///        next scan starts a new timeline.
+  void restart_scans();
+  /// @brief The pose clock jumped back: poses of the old timeline are forgotten.
+  void restart_poses();
   /// @brief Scans that can be resolved now (in utime order). Drops scans that can no longer be.
   std::vector<AssociatedScan> poll(double wall_time_s, bool use_wall_clock);
   /// @brief At end of input: resolves what can be, drops the rest.

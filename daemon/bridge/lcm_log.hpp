@@ -1,7 +1,10 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <cstdio>
 #include <vector>
+
+#include "bounded_decode.hpp"
 
 struct _lcm_eventlog_t;
 
@@ -30,6 +33,8 @@ class LogWriter {
     if (msg.encode(buf.data(), 0, static_cast<int>(buf.size())) < 0) return false;
     return write(channel, timestamp, buf.data(), buf.size());
   }
+  /// @brief Writes bytes as they are, outside any event (tests use it to damage a log on purpose).
+  bool append_bytes(const void* data, std::size_t size);
   void close();
   std::int64_t events_written() const { return written_; }
 
@@ -38,24 +43,49 @@ class LogWriter {
   std::int64_t written_ = 0;
 };
 
-/// @brief Reads events from an lcm-logger file.
+/// @brief What a LogReader had to skip: damage is skipped and counted, never the end of the log.
+struct LogReadStats {
+  std::int64_t events = 0;           ///< events returned
+  std::int64_t corrupt_headers = 0;  ///< event headers with an impossible channel or data length (resynchronised)
+  std::int64_t skipped_bytes = 0;    ///< bytes skipped while looking for the next event's sync word
+  bool truncated_tail = false;       ///< the last event ends past the end of the file
+  std::int64_t first_problem_offset = -1;  ///< byte offset of the first damage, -1 when none
+};
+
+/// @brief Reads events from an lcm-logger file (sync word 0xEDA1DA01, event number, timestamp, channel length,
+///        data length, channel, data; big-endian). Unlike LCM's own reader, which ends the log at the first damaged
+///        header (and allocates whatever length a header claims), a damaged header is counted and the reader
+///        resynchronises on the next sync word, so one bad event does not lose the rest of a drive. Lengths are
+///        bounded by kMaxChannelBytes, kMaxEventBytes and the bytes left in the file before anything is allocated.
 class LogReader {
  public:
+  static constexpr std::int32_t kMaxChannelBytes = 1000;
+  static constexpr std::int64_t kMaxEventBytes = std::int64_t{256} << 20;
+
   LogReader() = default;
   ~LogReader();
   LogReader(const LogReader&) = delete;
   LogReader& operator=(const LogReader&) = delete;
   bool open(const std::string& path, std::string* error);
-  /// @brief Next event; false at the end of the file (or at a truncated tail).
+  /// @brief Next event; false at the end of the file (or at a truncated tail, see stats()).
   bool next(LogEvent* event);
-  /// @brief Decodes an event into an lcm-gen message; false when the bytes do not decode.
+  const LogReadStats& stats() const { return stats_; }
+  /// @brief One line describing skipped damage ("" when none), for logs and tool output.
+  std::string problems() const;
+  /// @brief Decodes an event into an lcm-gen message with decode_bounded's checks; false when the bytes do not decode.
   template <typename Msg>
-  static bool decode(const LogEvent& event, Msg* msg) {
-    return msg->decode(event.data.data(), 0, static_cast<int>(event.data.size())) >= 0;
+  static bool decode(const LogEvent& event, Msg* msg, std::string* why = nullptr) {
+    DecodeResult r = decode_bounded(event.data.data(), event.data.size(), DecodeLimits{}, msg);
+    if (!r.ok && why) *why = r.reason + " (byte " + std::to_string(r.offset) + ")";
+    return r.ok;
   }
 
  private:
-  _lcm_eventlog_t* log_ = nullptr;
+  std::FILE* file_ = nullptr;
+  std::string path_;
+  std::int64_t file_size_ = 0;
+  std::int64_t offset_ = 0;  ///< read position
+  LogReadStats stats_;
 };
 
 }  // namespace loopd

@@ -41,6 +41,10 @@ bool from_message(const point_cloud_t& msg, PointCloud* cloud, std::string* erro
     *error = "point_cloud_t num_ring_indices is neither 0 nor num_points";
     return false;
   }
+  if (msg.num_rings < 0 || msg.num_rings > kMaxRings) {
+    *error = "point_cloud_t num_rings = " + std::to_string(msg.num_rings) + " is outside 0.." + std::to_string(kMaxRings);
+    return false;
+  }
   *cloud = PointCloud();
   cloud->points.resize(n);
   for (std::size_t i = 0; i < n; ++i) cloud->points[i] = Eigen::Vector3f(msg.x[i], msg.y[i], msg.z[i]);
@@ -72,8 +76,8 @@ pose_t to_message(const StampedPose& pose, std::int64_t seq) {
 
 bool from_message(const pose_t& msg, StampedPose* pose, std::string* error) {
   for (double v : msg.position)
-    if (!std::isfinite(v)) {
-      *error = "pose_t position is not finite";
+    if (!std::isfinite(v) || std::abs(v) > kMaxPosition) {
+      *error = std::isfinite(v) ? "pose_t position " + std::to_string(v) + " m is beyond 1e7 m" : "pose_t position is not finite";
       return false;
     }
   double qn = 0.0;
@@ -84,12 +88,12 @@ bool from_message(const pose_t& msg, StampedPose* pose, std::string* error) {
     }
     qn += v * v;
   }
-  if (qn < 1e-12) {
-    *error = "pose_t orientation is a zero quaternion";
+  if (qn < 1e-12 || qn > 1e12) {
+    *error = "pose_t orientation is a zero or huge quaternion";
     return false;
   }
-  if (!std::isfinite(msg.residual) || msg.residual < 0.0) {
-    *error = "pose_t residual is negative or not finite";
+  if (!std::isfinite(msg.residual) || msg.residual < 0.0 || msg.residual > kMaxPosition) {
+    *error = "pose_t residual is negative, not finite or beyond 1e7 m";
     return false;
   }
   pose->utime = msg.utime;

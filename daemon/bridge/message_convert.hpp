@@ -19,12 +19,17 @@ inline constexpr const char* kTrajectory = "CORRECTED_TRAJECTORY";
 inline constexpr const char* kStatus = "LOOPD_STATUS";
 }  // namespace channels
 
+/// @brief Most rings a scan may declare (lidars have at most 128 beams; the range image has one row per ring).
+inline constexpr int kMaxRings = 512;
+/// @brief Largest odometry position accepted [m]: anything beyond is a corrupt pose, not a place on Earth.
+inline constexpr double kMaxPosition = 1e7;
+
 point_cloud_t to_message(const PointCloud& cloud, std::int64_t utime, std::int64_t seq, const std::string& frame);
 /// @brief Validates array sizes; NaN points are kept (the pipeline filters and counts them).
 bool from_message(const point_cloud_t& msg, PointCloud* cloud, std::string* error);
 
 pose_t to_message(const StampedPose& pose, std::int64_t seq);
-/// @brief Rejects non-finite numbers and a zero quaternion.
+/// @brief Rejects non-finite numbers, positions beyond kMaxPosition and a zero quaternion.
 bool from_message(const pose_t& msg, StampedPose* pose, std::string* error);
 
 }  // namespace loopd

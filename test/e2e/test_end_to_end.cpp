@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <filesystem>
+#include <set>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sys/wait.h>
@@ -13,6 +14,7 @@
 #include <loopd/trajectory_t.hpp>
 
 #include "lcm_log.hpp"
+#include "support/hostile_log.hpp"
 #include "support/run_command.hpp"
 #include "loopd/core/pose.hpp"
 #include "message_convert.hpp"
@@ -95,5 +97,37 @@ TEST_CASE("loopd closes the loops of a simulated VLP-16 drive and corrects its t
   CHECK(j["stretches_closed"].get<int>() == j["stretches"].get<int>());
   CHECK(j["mean_error_after"].get<double>() < 0.9 * j["mean_error_before"].get<double>());
   CHECK(j["ate_after"].get<double>() < 0.8 * j["ate_before"].get<double>());
+  // A clean drive shows no input trouble: nothing estimated lost, no clock jump, odometry reset or sensor change.
+  CHECK(status.scans_lost_estimate == 0);
+  CHECK(status.clock_jumps == 0);
+  CHECK(status.odometry_resets == 0);
+  CHECK(status.sensor_changes == 0);
+
+  // The same drive with the crafted scans that used to stop loopd (fingerprint + random bytes, num_points = -1,
+  // num_points = 2^31 - 1) and a damaged event header in the log: all counted, and the rest of the drive gives the
+  // same accepted loops.
+  const std::string hostile = (dir / "hostile.lcmlog").string(), hostile_out = (dir / "hostile_out.lcmlog").string();
+  REQUIRE(loopd::test::copy_with_crafted_scans(drive, hostile, channels::kScan, 200, true) == 3);
+  log = loopd::test::run_command(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + hostile + " --output " + hostile_out, &rc);
+  INFO(log);
+  REQUIRE(rc == 0);
+  CHECK(log.find("num_points: = -1 is negative") != std::string::npos);
+  CHECK(log.find("1 corrupt event headers") != std::string::npos);
+  REQUIRE(reader.open(hostile_out, &error));
+  std::set<std::pair<std::int64_t, std::int64_t>> clean_loops, hostile_loops;
+  for (const auto& e : accepted) clean_loops.insert({e.query_utime, e.match_utime});
+  status_t hostile_status{};
+  while (reader.next(&ev)) {
+    loop_event_t e;
+    if (ev.channel == channels::kLoopEvent && LogReader::decode(ev, &e) && e.status == loop_event_t::STATUS_ACCEPTED)
+      hostile_loops.insert({e.query_utime, e.match_utime});
+    if (ev.channel == channels::kStatus) REQUIRE(LogReader::decode(ev, &hostile_status));
+  }
+  CHECK(hostile_loops == clean_loops);
+  REQUIRE(hostile_status.num_channels == 2);
+  CHECK(hostile_status.channels[0].received == 343);
+  CHECK(hostile_status.channels[0].malformed == 3);
+  CHECK(hostile_status.channels[0].accepted == status.channels[0].accepted);
+  CHECK(hostile_status.keyframes == status.keyframes);
   fs::remove_all(dir);
 }

@@ -16,6 +16,7 @@
 #include <loopd/status_t.hpp>
 
 #include "lcm_log.hpp"
+#include "support/hostile_log.hpp"
 #include "message_convert.hpp"
 
 using namespace loopd;
@@ -72,7 +73,7 @@ Published read_published(const std::string& path) {
 }
 }  // namespace
 
-TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions and drops nothing") {
+TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops nothing and survives crafted scans") {
   if (run("ip route get 239.255.76.67 | grep -q 'dev lo'") != 0) {
     WARN("skipped: multicast 239.255.76.0/24 is not routed through loopback (as root: ip link set lo multicast on; "
          "ip route add 239.255.76.0/24 dev lo)");
@@ -90,7 +91,10 @@ TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions and drop
   const pid_t loopd = spawn({kBin + "/daemon/loopd", "--sensor", "vlp16", "--quiet", "--lcm-url", url});
   const pid_t logger = spawn({"lcm-logger", "--lcm-url=" + url, "-c", "LOOP_EVENT|CORRECTED_TRAJECTORY|LOOPD_STATUS", "-f", (dir / "live.lcmlog").string()});
   std::this_thread::sleep_for(std::chrono::seconds(2));
-  REQUIRE(run("lcm-logplayer -l '" + url + "' -s 1 -e 'LIDAR_SCAN|ODOMETRY_POSE' " + drive) == 0);
+  // The drive as played carries the crafted scans that used to stop loopd (bounded decoding must count them).
+  const std::string played = (dir / "played.lcmlog").string();
+  REQUIRE(loopd::test::copy_with_crafted_scans(drive, played, channels::kScan, 200, false) == 3);
+  REQUIRE(run("lcm-logplayer -l '" + url + "' -s 1 -e 'LIDAR_SCAN|ODOMETRY_POSE' " + played) == 0);
   std::this_thread::sleep_for(std::chrono::seconds(4));  // let the workers finish and a status go out
   CHECK(stop(loopd) == 0);
   stop(logger);
@@ -98,8 +102,12 @@ TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions and drop
   const Published live = read_published((dir / "live.lcmlog").string());
   REQUIRE(live.has_status);
   REQUIRE(live.status.num_channels == 2);
-  CHECK(live.status.channels[0].received == 340);
+  CHECK(live.status.channels[0].received == 343);
+  CHECK(live.status.channels[0].malformed == 3);
   CHECK(live.status.channels[0].dropped == 0);
+  CHECK(live.status.scans_lost_estimate == 0);
+  CHECK(live.status.clock_jumps == 0);
+  CHECK(live.status.odometry_resets == 0);
   CHECK(live.status.channels[1].received == 340);
   CHECK(live.status.shed == 0);
   CHECK(live.accepted.size() >= 10);

@@ -1,0 +1,210 @@
+#include "bounded_decode.hpp"
+
+#include <cstring>
+#include <exception>
+#include <new>
+
+namespace loopd {
+namespace {
+
+/// Walks an LCM wire buffer without allocating: each read checks that the bytes are there. The first failure is kept
+/// (reason and offset) and every later read fails, so a layout function can read straight through and test ok() once.
+class WireWalker {
+ public:
+  WireWalker(const void* data, std::size_t size) : bytes_(static_cast<const std::uint8_t*>(data)), size_(size) {}
+
+  bool ok() const { return error_.empty(); }
+  const std::string& error() const { return error_; }
+  std::size_t error_offset() const { return error_offset_; }
+  std::size_t position() const { return pos_; }
+  std::size_t remaining() const { return size_ - pos_; }
+
+  /// Skips `count` elements of `width` bytes (a fixed-size field or array).
+  void skip(const char* field, std::size_t width, std::size_t count = 1) {
+    if (!ok()) return;
+    if (count > remaining() / width) return fail(field, "needs " + std::to_string(width * count) + " bytes, " + std::to_string(remaining()) + " left");
+    pos_ += width * count;
+  }
+  std::int64_t int64(const char* field) { return static_cast<std::int64_t>(big_endian(field, 8)); }
+  std::int32_t int32(const char* field) { return static_cast<std::int32_t>(static_cast<std::uint32_t>(big_endian(field, 4))); }
+  std::int16_t int16(const char* field) { return static_cast<std::int16_t>(static_cast<std::uint16_t>(big_endian(field, 2))); }
+
+  /// An array length field: 0 <= n <= max, and n elements of `width` bytes (times `arrays` arrays sharing it) present.
+  std::int64_t length(const char* field, std::int64_t n, std::int64_t max, std::size_t width, int arrays = 1) {
+    if (!ok()) return 0;
+    const std::size_t at = pos_ - 4;
+    if (n < 0) return fail_at(at, field, "= " + std::to_string(n) + " is negative"), 0;
+    if (n > max) return fail_at(at, field, "= " + std::to_string(n) + " exceeds the limit " + std::to_string(max)), 0;
+    if (static_cast<std::size_t>(n) > remaining() / (width * static_cast<std::size_t>(arrays)))
+      return fail_at(at, field, "= " + std::to_string(n) + " needs " + std::to_string(static_cast<std::size_t>(n) * width * arrays) + " bytes, " +
+                                    std::to_string(remaining()) + " left"),
+             0;
+    return n;
+  }
+
+  /// An LCM string: int32 length including the terminating NUL, the bytes, the NUL; no NUL inside.
+  void string(const char* field, std::int32_t max_bytes) {
+    const std::int32_t n = int32(field);
+    if (!ok()) return;
+    const std::size_t at = pos_ - 4;
+    if (n < 1) return fail_at(at, field, "string length " + std::to_string(n) + " (must be >= 1, counting its NUL)");
+    if (n - 1 > max_bytes) return fail_at(at, field, "string of " + std::to_string(n - 1) + " bytes exceeds the limit " + std::to_string(max_bytes));
+    if (static_cast<std::size_t>(n) > remaining()) return fail_at(at, field, "string needs " + std::to_string(n) + " bytes, " + std::to_string(remaining()) + " left");
+    const auto* s = bytes_ + pos_;
+    if (s[n - 1] != 0) return fail_at(at, field, "string is not NUL-terminated");
+    if (std::memchr(s, 0, static_cast<std::size_t>(n - 1)) != nullptr) return fail_at(at, field, "string contains a NUL byte");
+    pos_ += static_cast<std::size_t>(n);
+  }
+
+  void fingerprint(std::int64_t expected) {
+    const std::int64_t h = int64("fingerprint");
+    if (ok() && h != expected) fail_at(0, "fingerprint", "does not match the message type (another type, or another version of it)");
+  }
+  void end() {
+    if (ok() && remaining() != 0) fail("end of message", std::to_string(remaining()) + " trailing bytes");
+  }
+
+ private:
+  std::uint64_t big_endian(const char* field, std::size_t width) {
+    if (!ok()) return 0;
+    if (remaining() < width) return fail(field, "needs " + std::to_string(width) + " bytes, " + std::to_string(remaining()) + " left"), 0;
+    std::uint64_t v = 0;
+    for (std::size_t i = 0; i < width; ++i) v = (v << 8) | bytes_[pos_ + i];
+    pos_ += width;
+    return v;
+  }
+  void fail(const char* field, const std::string& why) { fail_at(pos_, field, why); }
+  void fail_at(std::size_t at, const char* field, const std::string& why) {
+    if (!ok()) return;
+    error_ = std::string(field) + ": " + why;
+    error_offset_ = at;
+  }
+
+  const std::uint8_t* bytes_;
+  std::size_t size_;
+  std::size_t pos_ = 0;
+  std::string error_;
+  std::size_t error_offset_ = 0;
+};
+
+// One layout function per message type, field by field as in lcmtypes/*.lcm (no hash: nested use).
+void walk(WireWalker& w, const DecodeLimits&, const pose_t*) {
+  w.skip("utime", 8);
+  w.skip("seq", 8);
+  w.skip("position", 8, 3);
+  w.skip("orientation", 8, 4);
+  w.skip("residual", 8);
+  w.skip("has_covariance", 1);
+  w.skip("covariance", 8, 36);
+}
+
+void walk(WireWalker& w, const DecodeLimits& limits, const point_cloud_t*) {
+  w.skip("utime", 8);
+  w.skip("seq", 8);
+  w.string("frame", limits.max_string);
+  const std::int64_t points = w.length("num_points", w.int32("num_points"), limits.max_points, sizeof(float), 4);
+  w.skip("x", sizeof(float), static_cast<std::size_t>(points));
+  w.skip("y", sizeof(float), static_cast<std::size_t>(points));
+  w.skip("z", sizeof(float), static_cast<std::size_t>(points));
+  w.skip("intensity", sizeof(float), static_cast<std::size_t>(points));
+  const std::int64_t rings = w.length("num_ring_indices", w.int32("num_ring_indices"), limits.max_points, sizeof(std::int16_t));
+  w.skip("ring", sizeof(std::int16_t), static_cast<std::size_t>(rings));
+  w.skip("num_rings", 2);
+}
+
+void walk(WireWalker& w, const DecodeLimits& limits, const loop_event_t*) {
+  w.skip("utime .. match_utime", 8, 6);
+  w.skip("status", 1);
+  w.string("stage", limits.max_string);
+  w.string("reason", limits.max_string);
+  w.skip("gate_distance .. degeneracy", 8, 8);
+  w.skip("T_match_query", 8, 16);
+  w.skip("ms_descriptor .. ms_total", 8, 5);
+}
+
+void walk(WireWalker& w, const DecodeLimits&, const keyframe_pose_t*) {
+  w.skip("id", 8);
+  w.skip("utime", 8);
+  w.skip("position", 8, 3);
+  w.skip("orientation", 8, 4);
+}
+constexpr std::size_t kKeyframePoseBytes = 8 + 8 + 3 * 8 + 4 * 8;
+
+void walk(WireWalker& w, const DecodeLimits& limits, const trajectory_t*) {
+  w.skip("utime", 8);
+  w.skip("revision", 8);
+  w.skip("loop_event_id", 8);
+  w.string("method", limits.max_string);
+  w.skip("T_map_odom", 8, 16);
+  const std::int64_t n = w.length("num_keyframes", w.int32("num_keyframes"), limits.max_keyframes, kKeyframePoseBytes);
+  w.skip("keyframes", kKeyframePoseBytes, static_cast<std::size_t>(n));
+}
+
+void walk(WireWalker& w, const DecodeLimits& limits, const channel_stats_t*) {
+  w.string("channel", limits.max_string);
+  w.skip("received .. dropped", 8, 4);
+}
+constexpr std::size_t kMinChannelStatsBytes = 4 + 1 + 4 * 8;
+
+void walk(WireWalker& w, const DecodeLimits& limits, const status_t*) {
+  w.skip("utime", 8);
+  w.skip("uptime_s", 8);
+  const std::int64_t n = w.length("num_channels", w.int32("num_channels"), limits.max_channels, kMinChannelStatsBytes);
+  for (std::int64_t i = 0; i < n && w.ok(); ++i) walk(w, limits, static_cast<const channel_stats_t*>(nullptr));
+  w.skip("pending_scans", 4);
+  w.skip("queue_depth", 4);
+  w.skip("shed .. memory_bytes", 8, 7);
+  w.string("device", limits.max_string);
+  w.skip("scans_lost_estimate .. sensor_changes", 8, 4);
+}
+
+}  // namespace
+
+template <typename Msg>
+DecodeResult decode_bounded(const void* data, std::size_t size, const DecodeLimits& limits, Msg* out) {
+  DecodeResult result;
+  if (data == nullptr && size != 0) {
+    result.reason = "no data";
+    return result;
+  }
+  if (size > static_cast<std::size_t>(INT32_MAX)) {  // LCM's decoder takes an int length
+    result.reason = "message of " + std::to_string(size) + " bytes is larger than LCM can decode";
+    return result;
+  }
+  WireWalker w(data, size);
+  w.fingerprint(Msg::getHash());
+  walk(w, limits, static_cast<const Msg*>(nullptr));
+  w.end();
+  if (!w.ok()) {
+    result.reason = w.error();
+    result.offset = w.error_offset();
+    return result;
+  }
+  // The layout is proven: LCM's decoder now allocates no more than the message holds. It still runs inside a try
+  // block, so that nothing can escape into an LCM callback or the replay loop.
+  try {
+    const int used = out->decode(data, 0, static_cast<int>(size));
+    if (used != static_cast<int>(size)) {
+      result.reason = "LCM's decoder refused the message after the layout check (" + std::to_string(used) + ")";
+      return result;
+    }
+  } catch (const std::bad_alloc&) {
+    result.reason = "out of memory while decoding";
+    return result;
+  } catch (const std::exception& e) {
+    result.reason = std::string("decoder error: ") + e.what();
+    return result;
+  }
+  result.ok = true;
+  return result;
+}
+
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, point_cloud_t*);
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, pose_t*);
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, loop_event_t*);
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, keyframe_pose_t*);
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, trajectory_t*);
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, channel_stats_t*);
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, status_t*);
+
+}  // namespace loopd

@@ -1,0 +1,41 @@
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include <loopd/channel_stats_t.hpp>
+#include <loopd/keyframe_pose_t.hpp>
+#include <loopd/loop_event_t.hpp>
+#include <loopd/point_cloud_t.hpp>
+#include <loopd/pose_t.hpp>
+#include <loopd/status_t.hpp>
+#include <loopd/trajectory_t.hpp>
+
+namespace loopd {
+
+/// @brief Caps applied to a message's declared lengths before anything is allocated.
+struct DecodeLimits {
+  std::int64_t max_points = 2000000;    ///< point_cloud_t.num_points and num_ring_indices
+  std::int32_t max_string = 4096;       ///< bytes of one string (frame, stage, reason, channel, method, device)
+  std::int32_t max_channels = 1024;     ///< status_t.num_channels
+  std::int64_t max_keyframes = 10000000;  ///< trajectory_t.num_keyframes
+};
+
+/// @brief Outcome of a bounded decode: ok, or the reason and the byte offset where the message went wrong.
+struct DecodeResult {
+  bool ok = false;
+  std::string reason;   ///< empty when ok, e.g. "num_points = -1 is negative"
+  std::size_t offset = 0;  ///< byte offset of the field that failed
+  explicit operator bool() const { return ok; }
+};
+
+/// @brief Decodes an lcm-gen message from untrusted bytes. LCM's generated decoder resizes every variable-length
+///        array and string to its declared length before it checks that the bytes are there (a 60-byte message can
+///        ask for gigabytes, and a length of -1 throws std::length_error). This first walks the wire format of `Msg`,
+///        checking the fingerprint, every declared length against the bytes present and against `limits`, and that
+///        nothing trails the message; only then does it run LCM's decoder (inside a try block). Never throws.
+///        Supported: point_cloud_t, pose_t, loop_event_t, trajectory_t, status_t, keyframe_pose_t, channel_stats_t.
+template <typename Msg>
+DecodeResult decode_bounded(const void* data, std::size_t size, const DecodeLimits& limits, Msg* out);
+
+}  // namespace loopd

@@ -1,0 +1,315 @@
+// Bounded decoding of untrusted LCM bytes (issue: one crafted message stopped the daemon) and the damage-tolerant
+// log reader.
+#include <catch2/catch.hpp>
+
+#include <cstring>
+#include <filesystem>
+#include <random>
+#include <unistd.h>
+
+#include "bounded_decode.hpp"
+#include "lcm_log.hpp"
+
+using namespace loopd;
+namespace fs = std::filesystem;
+
+namespace {
+
+template <typename Msg>
+std::vector<std::uint8_t> encode(const Msg& m) {
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(m.getEncodedSize()));
+  REQUIRE(m.encode(buf.data(), 0, static_cast<int>(buf.size())) == static_cast<int>(buf.size()));
+  return buf;
+}
+
+void put_int32(std::vector<std::uint8_t>* buf, std::size_t at, std::int32_t v) {
+  const auto u = static_cast<std::uint32_t>(v);
+  for (int i = 0; i < 4; ++i) (*buf)[at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(u >> (24 - 8 * i));
+}
+
+point_cloud_t small_scan(int n) {
+  point_cloud_t m{};
+  m.utime = 1000;
+  m.seq = 7;
+  m.frame = "velodyne";
+  m.num_points = n;
+  for (int i = 0; i < n; ++i) {
+    m.x.push_back(static_cast<float>(i));
+    m.y.push_back(1.5f);
+    m.z.push_back(-0.5f);
+    m.intensity.push_back(10.f);
+  }
+  m.num_ring_indices = n;
+  m.ring.assign(static_cast<std::size_t>(n), 3);
+  m.num_rings = 16;
+  return m;
+}
+
+// Offset of num_points in a point_cloud_t: fingerprint, utime, seq, frame (int32 length + bytes with NUL).
+std::size_t num_points_offset(const point_cloud_t& m) { return 8 + 8 + 8 + 4 + m.frame.size() + 1; }
+
+status_t sample_status() {
+  status_t s{};
+  s.utime = 5;
+  s.num_channels = 2;
+  for (const char* c : {"LIDAR_SCAN", "ODOMETRY_POSE"}) {
+    channel_stats_t cs{};
+    cs.channel = c;
+    cs.received = 10;
+    s.channels.push_back(cs);
+  }
+  s.device = "cpu";
+  s.scans_lost_estimate = 3;
+  return s;
+}
+
+trajectory_t sample_trajectory(int n) {
+  trajectory_t t{};
+  t.method = "heuristic+graph";
+  t.num_keyframes = n;
+  for (int i = 0; i < n; ++i) {
+    keyframe_pose_t k{};
+    k.id = i;
+    k.orientation[0] = 1.0;
+    t.keyframes.push_back(k);
+  }
+  return t;
+}
+
+loop_event_t sample_event() {
+  loop_event_t e{};
+  e.stage = "verify";
+  e.reason = "accepted";
+  e.T_match_query[0] = 1.0;
+  return e;
+}
+
+/// Every prefix of a valid message is rejected, and every single-byte change either decodes to a message that
+/// encodes back to exactly those bytes or is rejected; nothing throws.
+template <typename Msg>
+void check_truncations_and_flips(const Msg& m) {
+  const auto bytes = encode(m);
+  for (std::size_t len = 0; len < bytes.size(); ++len) {
+    Msg out;
+    const DecodeResult r = decode_bounded(bytes.data(), len, DecodeLimits{}, &out);
+    INFO("prefix " << len << " of " << bytes.size());
+    CHECK_FALSE(r.ok);
+    CHECK_FALSE(r.reason.empty());
+  }
+  std::mt19937 rng(42);
+  for (int trial = 0; trial < 2000; ++trial) {
+    auto b = bytes;
+    b[rng() % b.size()] ^= static_cast<std::uint8_t>(1u + rng() % 255u);
+    Msg out;
+    const DecodeResult r = decode_bounded(b.data(), b.size(), DecodeLimits{}, &out);
+    if (r.ok) CHECK(encode(out) == b);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("every message type decodes through decode_bounded exactly as LCM encoded it") {
+  const point_cloud_t scan = small_scan(5);
+  point_cloud_t scan_out;
+  auto bytes = encode(scan);
+  REQUIRE(decode_bounded(bytes.data(), bytes.size(), DecodeLimits{}, &scan_out).ok);
+  CHECK(scan_out.num_points == 5);
+  CHECK(scan_out.x[4] == 4.f);
+  CHECK(scan_out.frame == "velodyne");
+  CHECK(scan_out.num_rings == 16);
+
+  status_t status_out;
+  bytes = encode(sample_status());
+  REQUIRE(decode_bounded(bytes.data(), bytes.size(), DecodeLimits{}, &status_out).ok);
+  CHECK(status_out.channels[1].channel == "ODOMETRY_POSE");
+  CHECK(status_out.scans_lost_estimate == 3);
+
+  trajectory_t traj_out;
+  bytes = encode(sample_trajectory(3));
+  REQUIRE(decode_bounded(bytes.data(), bytes.size(), DecodeLimits{}, &traj_out).ok);
+  CHECK(traj_out.keyframes[2].id == 2);
+
+  loop_event_t event_out;
+  bytes = encode(sample_event());
+  REQUIRE(decode_bounded(bytes.data(), bytes.size(), DecodeLimits{}, &event_out).ok);
+  CHECK(event_out.reason == "accepted");
+
+  pose_t pose{};
+  pose.orientation[0] = 1.0;
+  pose.position[1] = 2.5;
+  pose_t pose_out;
+  bytes = encode(pose);
+  REQUIRE(decode_bounded(bytes.data(), bytes.size(), DecodeLimits{}, &pose_out).ok);
+  CHECK(pose_out.position[1] == 2.5);
+}
+
+TEST_CASE("the crafted scans that stopped the daemon are refused with the field and the byte offset") {
+  const point_cloud_t scan = small_scan(2);
+  const std::size_t at = num_points_offset(scan);
+  point_cloud_t out;
+
+  SECTION("the right fingerprint followed by random bytes") {
+    std::vector<std::uint8_t> b = encode(scan);
+    b.resize(4096);
+    std::mt19937 rng(7);
+    for (std::size_t i = 8; i < b.size(); ++i) b[i] = static_cast<std::uint8_t>(rng());
+    const DecodeResult r = decode_bounded(b.data(), b.size(), DecodeLimits{}, &out);
+    CHECK_FALSE(r.ok);
+    INFO(r.reason);
+    CHECK(r.offset >= 24);  // the fingerprint, utime and seq are fine; a length is not
+  }
+  SECTION("num_points = -1 in a 60-byte message") {
+    std::vector<std::uint8_t> b = encode(scan);
+    b.resize(60);
+    put_int32(&b, at, -1);
+    const DecodeResult r = decode_bounded(b.data(), b.size(), DecodeLimits{}, &out);
+    CHECK_FALSE(r.ok);
+    CHECK(r.reason == "num_points: = -1 is negative");
+    CHECK(r.offset == at);
+  }
+  SECTION("num_points = 2^31 - 1 in a 60-byte message: refused before anything is allocated") {
+    std::vector<std::uint8_t> b = encode(scan);
+    b.resize(60);
+    put_int32(&b, at, 2147483647);
+    const DecodeResult r = decode_bounded(b.data(), b.size(), DecodeLimits{}, &out);
+    CHECK_FALSE(r.ok);
+    CHECK(r.reason.find("exceeds the limit 2000000") != std::string::npos);
+    CHECK(out.x.capacity() == 0);
+  }
+  SECTION("num_points within the limit but more than the bytes present") {
+    std::vector<std::uint8_t> b = encode(scan);
+    put_int32(&b, at, 1000);
+    const DecodeResult r = decode_bounded(b.data(), b.size(), DecodeLimits{}, &out);
+    CHECK_FALSE(r.ok);
+    CHECK(r.reason.find("needs 16000 bytes") != std::string::npos);
+  }
+  SECTION("a configured cap on the points per scan") {
+    const std::vector<std::uint8_t> b = encode(small_scan(100));
+    DecodeLimits limits;
+    limits.max_points = 99;
+    CHECK_FALSE(decode_bounded(b.data(), b.size(), limits, &out).ok);
+    limits.max_points = 100;
+    CHECK(decode_bounded(b.data(), b.size(), limits, &out).ok);
+  }
+  SECTION("string lengths of 0, -5 and 2^31-1, a missing NUL, a NUL inside, trailing bytes, another type") {
+    const std::size_t frame_len_at = 24;
+    for (std::int32_t len : {0, -5, 2147483647}) {
+      std::vector<std::uint8_t> b = encode(scan);
+      put_int32(&b, frame_len_at, len);
+      const DecodeResult r = decode_bounded(b.data(), b.size(), DecodeLimits{}, &out);
+      CHECK_FALSE(r.ok);
+      CHECK(r.reason.rfind("frame: ", 0) == 0);
+      CHECK(r.offset == frame_len_at);
+    }
+    std::vector<std::uint8_t> b = encode(scan);
+    b[frame_len_at + 4 + 8] = 'x';  // the frame's NUL
+    CHECK(decode_bounded(b.data(), b.size(), DecodeLimits{}, &out).reason == "frame: string is not NUL-terminated");
+    b = encode(scan);
+    b[frame_len_at + 4 + 2] = 0;
+    CHECK(decode_bounded(b.data(), b.size(), DecodeLimits{}, &out).reason == "frame: string contains a NUL byte");
+    b = encode(scan);
+    b.push_back(0);
+    CHECK(decode_bounded(b.data(), b.size(), DecodeLimits{}, &out).reason == "end of message: 1 trailing bytes");
+    pose_t pose{};
+    pose.orientation[0] = 1;
+    b = encode(pose);
+    CHECK(decode_bounded(b.data(), b.size(), DecodeLimits{}, &out).reason.rfind("fingerprint", 0) == 0);
+  }
+}
+
+TEST_CASE("every truncation and 2000 random byte flips of every message type are refused or decode exactly") {
+  check_truncations_and_flips(small_scan(3));
+  check_truncations_and_flips(sample_status());
+  check_truncations_and_flips(sample_trajectory(2));
+  check_truncations_and_flips(sample_event());
+  pose_t pose{};
+  pose.orientation[0] = 1;
+  check_truncations_and_flips(pose);
+}
+
+TEST_CASE("status_t and trajectory_t lengths are checked against the bytes present") {
+  std::vector<std::uint8_t> b = encode(sample_status());
+  put_int32(&b, 24, 100000);  // num_channels (after fingerprint, utime, uptime_s)
+  status_t s;
+  DecodeResult r = decode_bounded(b.data(), b.size(), DecodeLimits{}, &s);
+  CHECK_FALSE(r.ok);
+  CHECK(r.reason.find("num_channels: = 100000 exceeds the limit 1024") == 0);
+  put_int32(&b, 24, 1000);
+  r = decode_bounded(b.data(), b.size(), DecodeLimits{}, &s);
+  CHECK(r.reason.rfind("num_channels: = 1000 needs", 0) == 0);
+
+  const trajectory_t t = sample_trajectory(2);
+  b = encode(t);
+  const std::size_t at = 8 + 24 + 4 + t.method.size() + 1 + 128;
+  put_int32(&b, at, -2);
+  trajectory_t out;
+  CHECK(decode_bounded(b.data(), b.size(), DecodeLimits{}, &out).reason == "num_keyframes: = -2 is negative");
+}
+
+TEST_CASE("a damaged event header in a log is skipped and counted; the events after it are read") {
+  const fs::path path = fs::temp_directory_path() / ("loopd_damaged_" + std::to_string(getpid()) + ".lcmlog");
+  {
+    LogWriter w;
+    std::string error;
+    REQUIRE(w.open(path.string(), &error));
+    for (int i = 0; i < 3; ++i) {
+      const std::vector<std::uint8_t> payload(100, static_cast<std::uint8_t>(i));
+      REQUIRE(w.write("CH" + std::to_string(i), 1000 + i, payload.data(), payload.size()));
+    }
+  }
+  // Event layout: sync 4, event number 8, timestamp 8, channel length 4, data length 4, channel 3, data 100.
+  const std::size_t event_bytes = 28 + 3 + 100;
+  std::vector<char> file(static_cast<std::size_t>(fs::file_size(path)));
+  REQUIRE(file.size() == 3 * event_bytes);
+  {
+    std::FILE* f = std::fopen(path.string().c_str(), "rb");
+    REQUIRE(std::fread(file.data(), 1, file.size(), f) == file.size());
+    std::fclose(f);
+  }
+  SECTION("the second event claims 2^31-1 data bytes") {
+    for (int i = 0; i < 4; ++i) file[event_bytes + 24 + static_cast<std::size_t>(i)] = "\x7f\xff\xff\xff"[i];
+  }
+  SECTION("the second event claims a negative channel length") {
+    for (int i = 0; i < 4; ++i) file[event_bytes + 20 + static_cast<std::size_t>(i)] = '\xff';
+  }
+  {
+    std::FILE* f = std::fopen(path.string().c_str(), "wb");
+    std::fwrite(file.data(), 1, file.size(), f);
+    std::fclose(f);
+  }
+  LogReader r;
+  std::string error;
+  REQUIRE(r.open(path.string(), &error));
+  LogEvent ev;
+  std::vector<std::string> channels;
+  while (r.next(&ev)) channels.push_back(ev.channel);
+  CHECK(channels == std::vector<std::string>{"CH0", "CH2"});
+  CHECK(r.stats().corrupt_headers == 1);
+  CHECK(r.stats().first_problem_offset == static_cast<std::int64_t>(event_bytes));
+  CHECK(r.problems().find("1 corrupt event headers") != std::string::npos);
+  fs::remove(path);
+}
+
+TEST_CASE("a log cut inside its last event ends at the last whole event and says so") {
+  const fs::path path = fs::temp_directory_path() / ("loopd_cut_" + std::to_string(getpid()) + ".lcmlog");
+  {
+    LogWriter w;
+    std::string error;
+    REQUIRE(w.open(path.string(), &error));
+    const std::vector<std::uint8_t> payload(50, 1);
+    REQUIRE(w.write("A", 1, payload.data(), payload.size()));
+    REQUIRE(w.write("B", 2, payload.data(), payload.size()));
+  }
+  fs::resize_file(path, fs::file_size(path) - 10);
+  LogReader r;
+  std::string error;
+  REQUIRE(r.open(path.string(), &error));
+  LogEvent ev;
+  int n = 0;
+  while (r.next(&ev)) ++n;
+  CHECK(n == 1);
+  CHECK(r.stats().truncated_tail);
+  fs::remove(path);
+  CHECK_FALSE(r.open(fs::temp_directory_path().string(), &error));
+  CHECK(error.find("not a regular file") != std::string::npos);
+}
