@@ -2,49 +2,48 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstring>
 #include <fstream>
 
-#ifdef LOOPD_WITH_PCL
-#include "loopd/io/pcl/pcl_cloud_file.hpp"
-#endif
+#include "loopd/io/file_bytes.hpp"
+#include "loopd/io/pcd_format.hpp"
+#include "loopd/io/ply_format.hpp"
 
 namespace loopd {
 namespace {
 std::string lower_extension(const std::string& path) {
   const auto dot = path.find_last_of('.');
-  if (dot == std::string::npos) return "";
+  if (dot == std::string::npos || path.find('/', dot) != std::string::npos) return "";
   std::string ext = path.substr(dot + 1);
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return ext;
 }
 }  // namespace
 
-bool read_kitti_bin(const std::string& path, PointCloud* cloud, std::string* error) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) {
-    *error = "cannot open " + path;
-    return false;
-  }
-  const std::streamsize bytes = in.tellg();
-  if (bytes % 16 != 0) {
-    *error = path + ": size " + std::to_string(bytes) + " is not a multiple of 16 bytes (float32 x, y, z, intensity)";
-    return false;
-  }
-  in.seekg(0);
-  std::vector<float> raw(static_cast<std::size_t>(bytes / 4));
-  if (!in.read(reinterpret_cast<char*>(raw.data()), bytes)) {
-    *error = "cannot read " + path;
-    return false;
-  }
-  const std::size_t n = raw.size() / 4;
+bool parse_kitti_bin(const std::string& bytes, const std::string& source, PointCloud* cloud, std::string* error) {
   *cloud = PointCloud();
+  if (bytes.size() % 16 != 0) {
+    *error = source + ": byte offset " + std::to_string(bytes.size() - bytes.size() % 16) + ": size " + std::to_string(bytes.size()) +
+             " is not a multiple of 16 bytes (float32 x, y, z, intensity a point; " + std::to_string(bytes.size() % 16) + " bytes left over)";
+    return false;
+  }
+  const std::size_t n = bytes.size() / 16;  // the file's own size: nothing larger is allocated
   cloud->points.resize(n);
   cloud->intensity.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    cloud->points[i] = Eigen::Vector3f(raw[4 * i], raw[4 * i + 1], raw[4 * i + 2]);
-    cloud->intensity[i] = raw[4 * i + 3];
+    float v[4];
+    std::memcpy(v, bytes.data() + 16 * i, sizeof(v));
+    cloud->points[i] = Eigen::Vector3f(v[0], v[1], v[2]);
+    cloud->intensity[i] = v[3];
   }
   return true;
+}
+
+bool read_kitti_bin(const std::string& path, PointCloud* cloud, std::string* error) {
+  *cloud = PointCloud();
+  std::string bytes;
+  if (!read_file_bytes(path, &bytes, error)) return false;
+  return parse_kitti_bin(bytes, path, cloud, error);
 }
 
 bool write_kitti_bin(const std::string& path, const PointCloud& cloud, std::string* error) {
@@ -60,19 +59,25 @@ bool write_kitti_bin(const std::string& path, const PointCloud& cloud, std::stri
   return static_cast<bool>(out);
 }
 
-bool read_cloud_file(const std::string& path, PointCloud* cloud, std::string* error) {
+bool parse_cloud_bytes(const std::string& bytes, const std::string& path, PointCloud* cloud, std::string* error) {
   const std::string ext = lower_extension(path);
-  if (ext == "bin") return read_kitti_bin(path, cloud, error);
-  if (ext == "pcd" || ext == "ply") {
-#ifdef LOOPD_WITH_PCL
-    return read_pcl_cloud_file(path, cloud, error);
-#else
-    *error = path + ": PCD/PLY support was not built (LOOPD_WITH_PCL=OFF)";
-    return false;
-#endif
-  }
+  if (ext == "bin") return parse_kitti_bin(bytes, path, cloud, error);
+  if (ext == "pcd") return parse_pcd(bytes, path, cloud, error);
+  if (ext == "ply") return parse_ply(bytes, path, cloud, error);
   *error = path + ": unknown point cloud format '." + ext + "' (expected .bin, .pcd or .ply)";
   return false;
+}
+
+bool read_cloud_file(const std::string& path, PointCloud* cloud, std::string* error) {
+  *cloud = PointCloud();
+  const std::string ext = lower_extension(path);
+  if (ext != "bin" && ext != "pcd" && ext != "ply") {
+    *error = path + ": unknown point cloud format '." + ext + "' (expected .bin, .pcd or .ply)";
+    return false;
+  }
+  std::string bytes;
+  if (!read_file_bytes(path, &bytes, error)) return false;
+  return parse_cloud_bytes(bytes, path, cloud, error);
 }
 
 }  // namespace loopd

@@ -6,15 +6,20 @@
 #include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
 
-#include <fstream>
+#include "loopd/io/file_bytes.hpp"
+#include "loopd/io/pcd_format.hpp"
+#include "loopd/io/ply_format.hpp"
 
 namespace loopd {
 
 bool read_pcl_cloud_file(const std::string& path, PointCloud* cloud, std::string* error) {
-  if (!std::ifstream(path)) {
-    *error = "cannot open " + path;
-    return false;
-  }
+  // PCL's readers size their buffers from the header before checking that the data are there (a PCD header that
+  // declares 2^31 points makes them allocate gigabytes): the file is checked by loopd's own parser first.
+  std::string bytes;
+  if (!read_file_bytes(path, &bytes, error)) return false;
+  const bool is_ply_ext = path.size() >= 4 && (path.substr(path.size() - 4) == ".ply" || path.substr(path.size() - 4) == ".PLY");
+  if (!(is_ply_ext ? parse_ply(bytes, path, cloud, error) : parse_pcd(bytes, path, cloud, error))) return false;
+  bytes.clear();
   pcl::PCLPointCloud2 blob;
   const bool is_ply = path.size() >= 4 && (path.substr(path.size() - 4) == ".ply" || path.substr(path.size() - 4) == ".PLY");
   const int rc = is_ply ? pcl::PLYReader().read(path, blob) : pcl::PCDReader().read(path, blob);
