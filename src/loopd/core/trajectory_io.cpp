@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
@@ -18,7 +19,7 @@ bool parse_numbers(const std::string& line, std::vector<double>* out, std::strin
   while (ss >> tok) {
     char* end = nullptr;
     const double v = std::strtod(tok.c_str(), &end);
-    if (end == tok.c_str() || *end != '\0') {
+    if (end == tok.c_str() || end != tok.c_str() + tok.size()) {  // also a token with a NUL byte inside
       if (bad_token) *bad_token = tok;
       if (reason) *reason = "'" + tok + "' is not a number";
       return false;
@@ -39,6 +40,14 @@ bool skip_line(const std::string& line) {
 }
 
 std::string where(const std::string& source, int line) { return source + ":" + std::to_string(line) + ": "; }
+
+std::string open_text_file(const std::string& path, std::ifstream* in) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) return path + ": is a directory, not a file";
+  in->open(path);
+  if (!*in) return path + ": cannot open";
+  return {};
+}
 
 std::string for_each_number_line(std::istream& in, const std::string& source,
                                  const std::function<std::string(const std::vector<double>&)>& on_numbers) {
@@ -70,7 +79,8 @@ bool checked_isometry_from_3x4(const double* v, Eigen::Isometry3d* T, std::strin
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) R(r, c) = v[r * 4 + c];
   const double orth = (R.transpose() * R - Eigen::Matrix3d::Identity()).norm();
-  if (orth > 1e-2 || R.determinant() < 0.0) {
+  // Written so that NaN (from huge values that overflow) fails too.
+  if (!(orth <= 1e-2) || !(R.determinant() > 0.0)) {
     *reason = "rotation part is not a rotation matrix (|R^T R - I| = " + std::to_string(orth) + ")";
     return false;
   }
@@ -82,6 +92,9 @@ bool checked_isometry_from_3x4(const double* v, Eigen::Isometry3d* T, std::strin
 
 namespace {
 
+/// Times beyond this [s] would overflow microsecond stamps (int64) downstream.
+constexpr double kMaxSeconds = 1e11;
+
 bool is_blank(const std::string& s) { return s.find_first_not_of(" \t\r") == std::string::npos; }
 
 /// Reads the numbers of every line of a KITTI file (poses, times): an empty line is allowed only at the end (in the
@@ -89,9 +102,9 @@ bool is_blank(const std::string& s) { return s.find_first_not_of(" \t\r") == std
 template <typename OnNumbers>
 bool read_kitti_lines(const std::string& path, const std::string& what, const std::string& expected,
                       std::string* error, OnNumbers on_numbers) {
-  std::ifstream in(path);
-  if (!in) {
-    if (error) *error = "cannot open " + what + " file " + path;
+  std::ifstream in;
+  if (std::string reason = text::open_text_file(path, &in); !reason.empty()) {
+    if (error) *error = "cannot open " + what + " file: " + reason;
     return false;
   }
   std::string line, bad;
@@ -152,10 +165,10 @@ TrajectoryFile parse_trajectory(std::istream& in, TrajectoryFormat format, const
 }
 
 TrajectoryFile read_trajectory(const std::string& path, TrajectoryFormat format) {
-  std::ifstream in(path);
-  if (!in) {
+  std::ifstream in;
+  if (std::string reason = text::open_text_file(path, &in); !reason.empty()) {
     TrajectoryFile f;
-    f.error = path + ": cannot open";
+    f.error = reason;
     return f;
   }
   return parse_trajectory(in, format, path);
@@ -204,7 +217,10 @@ bool read_kitti_poses(const std::string& path, std::vector<Eigen::Isometry3d>* p
   poses->clear();
   const bool ok = read_kitti_lines(path, "poses", "12 numbers", error, [&](const std::vector<double>& v) -> std::string {
     if (v.size() != 12) return "expected 12 numbers (3x4 pose), got " + std::to_string(v.size());
-    poses->push_back(text::isometry_from_3x4(v.data()));
+    Eigen::Isometry3d T;
+    std::string reason;
+    if (!text::checked_isometry_from_3x4(v.data(), &T, &reason)) return reason;
+    poses->push_back(T);
     return {};
   });
   if (!ok) return false;
@@ -219,6 +235,7 @@ bool read_kitti_times(const std::string& path, std::vector<double>* seconds, std
   seconds->clear();
   const bool ok = read_kitti_lines(path, "times", "a time in seconds", error, [&](const std::vector<double>& v) -> std::string {
     if (v.size() != 1) return "expected 1 number, got " + std::to_string(v.size());
+    if (std::abs(v[0]) > kMaxSeconds) return "time " + std::to_string(v[0]) + " s is out of range (|t| <= 1e11 s)";
     if (!seconds->empty() && v[0] < seconds->back()) return "time goes backwards";
     seconds->push_back(v[0]);
     return {};
@@ -232,9 +249,9 @@ bool read_kitti_times(const std::string& path, std::vector<double>* seconds, std
 }
 
 bool read_kitti_calib_tr(const std::string& path, Eigen::Isometry3d* T_cam_velo, std::string* error) {
-  std::ifstream in(path);
-  if (!in) {
-    if (error) *error = "cannot open calibration file " + path;
+  std::ifstream in;
+  if (std::string reason = text::open_text_file(path, &in); !reason.empty()) {
+    if (error) *error = "cannot open calibration file: " + reason;
     return false;
   }
   std::string line, bad;
@@ -255,7 +272,11 @@ bool read_kitti_calib_tr(const std::string& path, Eigen::Isometry3d* T_cam_velo,
       if (error) *error = text::where(path, line_no) + key + " needs 12 numbers (3x4), got " + std::to_string(v.size());
       return false;
     }
-    *T_cam_velo = text::isometry_from_3x4(v.data());
+    std::string reason;
+    if (!text::checked_isometry_from_3x4(v.data(), T_cam_velo, &reason)) {
+      if (error) *error = text::where(path, line_no) + key + ": " + reason;
+      return false;
+    }
     return true;
   }
   if (error) *error = path + ": no 'Tr:' line (velodyne-to-camera transform)";

@@ -4,6 +4,7 @@
 // loopd-eval / kitti2lcm (eval), tests and benches; errors name the file and the 1-based line.
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <fstream>
 #include <functional>
 #include <istream>
 #include <optional>
@@ -40,11 +41,11 @@ bool write_tum_trajectory(const std::string& path, const std::vector<std::int64_
 /// @brief Writes a trajectory in KITTI format: 12 numbers per line, the 3x4 row-major [R | t].
 bool write_kitti_trajectory(const std::string& path, const std::vector<Eigen::Isometry3d>& poses, std::string* error);
 
-/// @brief Reads KITTI poses (12 numbers per line, 3x4 row-major, re-orthonormalised). Empty lines are not allowed
+/// @brief Reads KITTI poses (12 numbers per line, 3x4 row-major, close to a rotation (1e-2), re-orthonormalised). Empty lines are not allowed
 ///        (except a trailing one): they would shift every later pose. Errors name the file and the 1-based line.
 bool read_kitti_poses(const std::string& path, std::vector<Eigen::Isometry3d>* poses, std::string* error);
 
-/// @brief Reads a KITTI times.txt (one timestamp in seconds per line, non-decreasing).
+/// @brief Reads a KITTI times.txt (one timestamp in seconds per line, non-decreasing, |t| <= 1e11 s).
 bool read_kitti_times(const std::string& path, std::vector<double>* seconds, std::string* error);
 
 /// @brief Reads the velodyne-to-camera transform from a KITTI calib file: the line "Tr: <12 numbers>" (or
@@ -70,6 +71,8 @@ bool parse_numbers(const std::string& line, std::vector<double>* out, std::strin
 bool skip_line(const std::string& line);
 /// @brief "<source>:<line>: ".
 std::string where(const std::string& source, int line);
+/// @brief Opens a text file for reading; returns "" or "<path>: is a directory, not a file" / "<path>: cannot open".
+std::string open_text_file(const std::string& path, std::ifstream* in);
 /// @brief Reads `in` line by line, skipping blank and '#' lines, and calls on_numbers(numbers of the line), which
 ///        returns "" when the line is fine or the reason it is not. Returns "" or "<source>:<line>: <reason>" for the
 ///        first bad line (a non-number or non-finite value included).

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 
 namespace loopd {
 
@@ -10,10 +11,11 @@ LoopFile parse_loops(std::istream& in, const std::string& source, int num_poses)
   f.error = text::for_each_number_line(in, source, [&](const std::vector<double>& v) -> std::string {
     if (v.size() != 14) return "expected 14 numbers (query_index match_index + 12 of T_match_query), got " + std::to_string(v.size());
     for (int k = 0; k < 2; ++k) {
-      if (v[k] != std::floor(v[k]) || v[k] < 0) return (k == 0 ? "query_index" : "match_index") + std::string(" must be a non-negative integer");
+      const std::string name = k == 0 ? "query_index" : "match_index";
+      if (v[k] != std::floor(v[k]) || v[k] < 0) return name + " must be a non-negative integer";
+      if (v[k] > static_cast<double>(std::numeric_limits<int>::max())) return name + " " + std::to_string(v[k]) + " is out of range";
       if (num_poses >= 0 && v[k] >= num_poses)
-        return (k == 0 ? "query_index " : "match_index ") + std::to_string(static_cast<long>(v[k])) + " is out of range (trajectory has " +
-               std::to_string(num_poses) + " poses)";
+        return name + " " + std::to_string(static_cast<long>(v[k])) + " is out of range (trajectory has " + std::to_string(num_poses) + " poses)";
     }
     LoopConstraint l;
     l.query_index = static_cast<int>(v[0]);
@@ -27,10 +29,10 @@ LoopFile parse_loops(std::istream& in, const std::string& source, int num_poses)
 }
 
 LoopFile read_loops(const std::string& path, int num_poses) {
-  std::ifstream in(path);
-  if (!in) {
+  std::ifstream in;
+  if (std::string reason = text::open_text_file(path, &in); !reason.empty()) {
     LoopFile f;
-    f.error = path + ": cannot open";
+    f.error = reason;
     return f;
   }
   return parse_loops(in, path, num_poses);
@@ -48,10 +50,10 @@ ResidualFile parse_residuals(std::istream& in, const std::string& source) {
 }
 
 ResidualFile read_residuals(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) {
+  std::ifstream in;
+  if (std::string reason = text::open_text_file(path, &in); !reason.empty()) {
     ResidualFile f;
-    f.error = path + ": cannot open";
+    f.error = reason;
     return f;
   }
   return parse_residuals(in, path);
