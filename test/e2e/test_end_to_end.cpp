@@ -111,7 +111,7 @@ TEST_CASE("loopd closes the loops of a simulated VLP-16 drive and corrects its t
   log = loopd::test::run_command(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + hostile + " --output " + hostile_out, &rc);
   INFO(log);
   REQUIRE(rc == 0);
-  CHECK(log.find("num_points: = -1 is negative") != std::string::npos);
+  CHECK(log.find("could not decode a 4008-byte message") != std::string::npos);  // the first is logged, the rest counted
   CHECK(log.find("1 corrupt event headers") != std::string::npos);
   REQUIRE(reader.open(hostile_out, &error));
   std::set<std::pair<std::int64_t, std::int64_t>> clean_loops, hostile_loops;
