@@ -2,9 +2,13 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include <fstream>
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <functional>
+#include <iomanip>
 #include <map>
 #include <set>
 #include <sstream>
@@ -22,16 +26,24 @@ class Binder {
   void field(const std::string& path, T& value) {
     known_.insert(path);
     if (mode_ == Mode::kDump) {
-      dump_[path] = to_text(value);
+      dump_[path] = {to_text(value), std::is_same_v<T, std::string>};
       return;
     }
     if (!error_.empty()) return;
     YAML::Node node = lookup(path);
     if (!node) return;
     try {
-      value = node.as<T>();
+      const T parsed = node.as<T>();
+      if constexpr (std::is_floating_point_v<T>) {
+        if (!std::isfinite(parsed)) {
+          error_ = at(node) + path + ": expected a finite number, got '" + node.Scalar().substr(0, 64) + "'";
+          return;
+        }
+      }
+      value = parsed;
     } catch (const YAML::Exception&) {
-      error_ = path + ": expected " + type_name(value) + ", got '" + (node.IsScalar() ? node.Scalar() : std::string("a map or list")) + "'";
+      error_ = at(node) + path + ": expected " + type_name(value) + ", got '" +
+               (node.IsScalar() ? node.Scalar().substr(0, 64) : std::string("a map or list")) + "'";
     }
   }
   /// An enum stored as one of several names.
@@ -42,13 +54,13 @@ class Binder {
       if (v == value) text = n;
     known_.insert(path);
     if (mode_ == Mode::kDump) {
-      dump_[path] = text;
+      dump_[path] = {text, false};
       return;
     }
     if (!error_.empty()) return;
     YAML::Node node = lookup(path);
     if (!node) return;
-    const std::string got = node.IsScalar() ? node.Scalar() : "";
+    const std::string got = node.IsScalar() ? node.Scalar().substr(0, 64) : "";
     for (const auto& [n, v] : names)
       if (n == got) {
         value = v;
@@ -56,7 +68,7 @@ class Binder {
       }
     std::string options;
     for (const auto& [n, v] : names) options += (options.empty() ? "" : ", ") + n;
-    error_ = path + ": expected one of " + options + ", got '" + got + "'";
+    error_ = at(node) + path + ": expected one of " + options + ", got '" + got + "'";
   }
   /// Reports keys present in the YAML that no field consumed.
   void check_unknown() {
@@ -64,18 +76,28 @@ class Binder {
     walk(root_, "");
   }
   const std::string& error() const { return error_; }
-  const std::map<std::string, std::string>& dumped() const { return dump_; }
+  /// Dumped values: path -> (YAML text, whether it is a string).
+  const std::map<std::string, std::pair<std::string, bool>>& dumped() const { return dump_; }
 
  private:
+  /// "line N: " of a node (1-based), "" when yaml-cpp has no position for it.
+  static std::string at(const YAML::Node& node) {
+    const YAML::Mark m = node.Mark();
+    return m.is_null() ? std::string() : "line " + std::to_string(m.line + 1) + ": ";
+  }
   YAML::Node lookup(const std::string& path) const {
-    YAML::Node node = YAML::Clone(root_);
+    // Read-only walk: const operator[] inserts nothing, and reset() re-points the handle (operator= would overwrite
+    // the node it refers to).
+    YAML::Node node;
+    node.reset(root_);
     std::stringstream ss(path);
     std::string part;
     while (std::getline(ss, part, '.')) {
       if (!node.IsMap()) return YAML::Node(YAML::NodeType::Undefined);
-      YAML::Node child = node[part];
+      const YAML::Node& map = node;
+      YAML::Node child = map[part];
       if (!child) return YAML::Node(YAML::NodeType::Undefined);
-      node = child;
+      node.reset(child);
     }
     return node;
   }
@@ -86,7 +108,11 @@ class Binder {
       return;
     }
     for (const auto& kv : node) {
-      const std::string key = prefix.empty() ? kv.first.as<std::string>() : prefix + "." + kv.first.as<std::string>();
+      if (!kv.first.IsScalar()) {
+        error_ = at(kv.first) + (prefix.empty() ? std::string() : prefix + ": ") + "a key must be a plain name, not a map or list";
+        return;
+      }
+      const std::string key = prefix.empty() ? kv.first.Scalar() : prefix + "." + kv.first.Scalar();
       walk(kv.second, key);
     }
   }
@@ -95,13 +121,26 @@ class Binder {
   static std::string type_name(const std::int64_t&) { return "an integer"; }
   static std::string type_name(const bool&) { return "true or false"; }
   static std::string type_name(const std::string&) { return "a string"; }
+  /// The shortest decimal text (6 to 17 digits) that reads back as exactly `v`.
+  static std::string shortest_exact(double v) {
+    std::string text;
+    for (int digits = 6; digits <= 17; ++digits) {
+      std::ostringstream os;
+      os << std::setprecision(digits) << v;
+      text = os.str();
+      if (std::strtod(text.c_str(), nullptr) == v) break;
+    }
+    return text;
+  }
   template <typename T>
   static std::string to_text(const T& v) {
     std::ostringstream os;
     if constexpr (std::is_same_v<T, bool>)
       os << (v ? "true" : "false");
     else if constexpr (std::is_same_v<T, std::string>)
-      os << '"' << v << '"';
+      os << v;  // emitted as a string node (quoted by the emitter where needed)
+    else if constexpr (std::is_floating_point_v<T>)
+      os << shortest_exact(v);  // loads back to the same double
     else
       os << v;
     return os.str();
@@ -110,7 +149,7 @@ class Binder {
   Mode mode_;
   YAML::Node root_;
   std::set<std::string> known_;
-  std::map<std::string, std::string> dump_;
+  std::map<std::string, std::pair<std::string, bool>> dump_;
   std::string error_;
 };
 
@@ -230,7 +269,9 @@ bool apply_sensor_preset(const std::string& sensor, DaemonConfig* config, std::s
   return true;
 }
 
-bool load_config_text(const std::string& yaml, DaemonConfig* config, std::string* error) {
+namespace {
+
+bool load_config_text_unguarded(const std::string& yaml, DaemonConfig* config, std::string* error) {
   YAML::Node root;
   try {
     root = YAML::Load(yaml);
@@ -263,7 +304,41 @@ bool load_config_text(const std::string& yaml, DaemonConfig* config, std::string
   return true;
 }
 
+/// A config file is small text: anything larger is not one (and /dev/zero never ends).
+constexpr std::uintmax_t kMaxConfigBytes = 1 << 20;
+
+}  // namespace
+
+bool load_config_text(const std::string& yaml, DaemonConfig* config, std::string* error) {
+  // yaml-cpp reports bad YAML with exceptions, some from places the binder cannot foresee (conversions, node
+  // access): none may leave here. The config is only changed when the whole text is accepted.
+  DaemonConfig candidate = *config;
+  try {
+    if (!load_config_text_unguarded(yaml, &candidate, error)) return false;
+  } catch (const std::exception& ex) {
+    *error = std::string("YAML: ") + ex.what();
+    return false;
+  }
+  *config = candidate;
+  return true;
+}
+
 bool load_config(const std::string& path, DaemonConfig* config, std::string* error) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::exists(status)) {
+    *error = "cannot read config file " + path + " (no such file)";
+    return false;
+  }
+  if (!std::filesystem::is_regular_file(status)) {
+    *error = "cannot read config file " + path + (std::filesystem::is_directory(status) ? " (a directory)" : " (not a regular file)");
+    return false;
+  }
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec || size > kMaxConfigBytes) {
+    *error = "config file " + path + " is " + std::to_string(size) + " bytes (at most " + std::to_string(kMaxConfigBytes) + ")";
+    return false;
+  }
   std::ifstream in(path);
   if (!in) {
     *error = "cannot read config file " + path;
@@ -284,14 +359,19 @@ std::string dump_config(const DaemonConfig& config) {
   bind(b, copy);
   // Nest the dotted paths back into YAML.
   YAML::Node root(YAML::NodeType::Map);
-  for (const auto& [path, text] : b.dumped()) {
+  for (const auto& [path, value] : b.dumped()) {
+    const std::string& text = value.first;  // (a lambda cannot capture structured bindings in C++17)
+    const bool is_string = value.second;
     std::vector<std::string> parts;
     std::stringstream ss(path);
     std::string part;
     while (std::getline(ss, part, '.')) parts.push_back(part);
     std::function<void(YAML::Node, std::size_t)> set = [&](YAML::Node node, std::size_t i) {
       if (i + 1 == parts.size()) {
-        node[parts[i]] = YAML::Load(text);
+        if (is_string)
+          node[parts[i]] = text;
+        else
+          node[parts[i]] = YAML::Load(text);
         return;
       }
       set(node[parts[i]], i + 1);
