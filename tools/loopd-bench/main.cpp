@@ -9,6 +9,7 @@ int run_bench_gicp(int argc, char** argv);
 int run_bench_verify(int argc, char** argv);
 int run_bench_correct(int argc, char** argv);
 int run_bench_pipeline(int argc, char** argv);
+int run_bench_soak(int argc, char** argv);
 
 namespace {
 struct Subcommand {
@@ -23,6 +24,7 @@ constexpr Subcommand kSubcommands[] = {
     {"verify", run_bench_verify, "whole verification: ms per stage"},
     {"correct", run_bench_correct, "loop correction: ms per method"},
     {"pipeline", run_bench_pipeline, "whole pipeline on a simulated drive: throughput, latency, memory"},
+    {"soak", run_bench_soak, "loopd live for N minutes on a looping drive: RSS, threads, fds, latency"},
 };
 void usage() {
   std::cout << "usage: loopd-bench <subcommand> [options] [--json]\n\nsubcommands:\n";
