@@ -78,6 +78,24 @@ TEST_CASE("scan loss estimate: no loss on a steady stream, the true count under 
     CHECK(e.lost() == 30 + 20);
     CHECK(e.loss_fraction() == Approx(50.0 / 220.0));
   }
+  SECTION("95 % lost (a receive buffer far too small): the odometry gives the period, every lost scan is counted") {
+    for (int poses_per_scan : {1, 10}) {  // odometry at the scan rate, and 100 Hz odometry with a 10 Hz lidar
+      ScanLossEstimator e;
+      std::mt19937 rng(5);
+      std::bernoulli_distribution arrives(0.05);
+      int received = 0;
+      for (int i = 0; i < 300; ++i) {
+        for (int k = 0; k < poses_per_scan; ++k) e.on_pose(i * kPeriod + k * (kPeriod / poses_per_scan));
+        if (i == 7 || (i > 7 && arrives(rng))) {  // the first 7 scans lost too: the odometry shows them
+          e.on_scan(i * kPeriod);
+          ++received;
+        }
+      }
+      INFO(poses_per_scan << " poses per scan: received " << received << ", estimated lost " << e.lost());
+      CHECK(e.period_us() == kPeriod);
+      CHECK(e.lost() == 300 - received);  // before the first scan, between scans, after the last one
+    }
+  }
   SECTION("a clock jump is not a gap") {
     ScanLossEstimator e;
     for (int i = 0; i < 50; ++i) e.on_scan(i * kPeriod);
