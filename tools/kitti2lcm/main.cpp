@@ -26,7 +26,8 @@ std::string scan_path(const std::string& velodyne_dir, std::size_t frame) {
   std::snprintf(name, sizeof(name), "%06zu", frame);
   for (const char* ext : {".bin", ".pcd", ".ply"}) {
     const std::string p = velodyne_dir + "/" + name + ext;
-    if (fs::exists(p)) return p;
+    std::error_code ec;  // the non-throwing overloads: a permission error must not abort the tool
+    if (fs::exists(p, ec)) return p;
   }
   return {};
 }
@@ -105,12 +106,13 @@ int main(int argc, char** argv) {
     if (!model) return fail("unknown --sensor '" + sensor + "'");
   }
 
-  if (!fs::is_directory(sequence)) return fail("sequence folder " + sequence + " does not exist");
-  const std::string velodyne_dir = fs::is_directory(sequence + "/velodyne") ? sequence + "/velodyne" : sequence;
+  std::error_code fs_error;  // the non-throwing overloads: a permission error must not abort the tool
+  if (!fs::is_directory(sequence, fs_error)) return fail("sequence folder " + sequence + " does not exist");
+  const std::string velodyne_dir = fs::is_directory(sequence + "/velodyne", fs_error) ? sequence + "/velodyne" : sequence;
   if (calib_path.empty()) calib_path = sequence + "/calib.txt";
   std::string error;
   Eigen::Isometry3d T_cam_velo;
-  if (!fs::exists(calib_path))
+  if (!fs::exists(calib_path, fs_error))
     return fail("calibration file " + calib_path + " not found (give it with --calib)");
   if (!read_kitti_calib_tr(calib_path, &T_cam_velo, &error)) return fail(error);
   std::vector<Eigen::Isometry3d> cam_poses;
@@ -118,7 +120,7 @@ int main(int argc, char** argv) {
   const std::vector<Eigen::Isometry3d> gt = kitti_camera_to_lidar(cam_poses, T_cam_velo);
 
   std::vector<double> times;
-  if (times_path.empty() && fs::exists(sequence + "/times.txt")) times_path = sequence + "/times.txt";
+  if (times_path.empty() && fs::exists(sequence + "/times.txt", fs_error)) times_path = sequence + "/times.txt";
   if (!times_path.empty()) {
     if (!read_kitti_times(times_path, &times, &error)) return fail(error);
     if (times.size() < gt.size())
