@@ -61,8 +61,12 @@ bool LoopdEngine::push_scan(std::int64_t utime, PointCloud cloud, double arrival
     stats_.nan_points += static_cast<std::int64_t>(cloud.size() - finite);
     if (finite == 0 || too_large || verdict == ClockVerdict::kStale) {
       ++stats_.invalid_scans;
-      return false;
+      if (verdict == ClockVerdict::kStale && !too_large && finite > 0) loss_.on_late_scan(utime);  // late, not lost
     }
+  }
+  if (finite == 0 || too_large || verdict == ClockVerdict::kStale) {
+    update_input_health();
+    return false;
   }
   if (verdict == ClockVerdict::kJumpBack) associator_.restart_scans();
   loss_.on_scan(utime, jumped);

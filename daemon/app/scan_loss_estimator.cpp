@@ -34,7 +34,9 @@ void ScanLossEstimator::on_scan(std::int64_t utime, bool clock_jumped) {
     push_window(&scan_intervals_, gap, config_.window);
     update_period();
     if (period_us_ > 0) {
-      lost_ += missing_in(gap);
+      const std::int64_t missing = missing_in(gap);
+      lost_ += missing;
+      if (missing > 0) remember_gap(last_scan_, utime, missing);
     } else if (static_cast<int>(uncounted_.size()) < config_.window) {
       uncounted_.push_back(gap);
     }
@@ -43,6 +45,23 @@ void ScanLossEstimator::on_scan(std::int64_t utime, bool clock_jumped) {
   if (!has_scan_) first_scan_ = utime;
   has_scan_ = true;
   if (clock_jumped) newest_pose_ = utime;
+}
+
+void ScanLossEstimator::remember_gap(std::int64_t start, std::int64_t end, std::int64_t missing) {
+  recent_gaps_.push_back({start, end, missing, {}});
+  if (recent_gaps_.size() > 16) recent_gaps_.pop_front();
+}
+
+void ScanLossEstimator::on_late_scan(std::int64_t utime) {
+  for (Gap& g : recent_gaps_) {
+    if (utime <= g.start || utime >= g.end || g.missing == 0) continue;
+    if (std::find(g.late.begin(), g.late.end(), utime) != g.late.end()) return;  // a copy of a late scan
+    g.late.push_back(utime);
+    --g.missing;
+    --lost_;
+    ++received_;
+    return;
+  }
 }
 
 void ScanLossEstimator::on_pose(std::int64_t utime, bool clock_jumped) {

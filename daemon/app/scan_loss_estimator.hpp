@@ -26,6 +26,9 @@ class ScanLossEstimator {
 
   /// @brief A received scan at `utime` [us]. `clock_jumped` when the data clock jumped just before it (no gap).
   void on_scan(std::int64_t utime, bool clock_jumped = false);
+  /// @brief A scan that arrived after a newer one (rejected as stale): if it falls inside a recent gap counted as
+  ///        loss, it was late, not lost, and is taken back off the count (each utime once).
+  void on_late_scan(std::int64_t utime);
   /// @brief An odometry pose at `utime` [us]. `clock_jumped` as for scans.
   void on_pose(std::int64_t utime, bool clock_jumped = false);
   /// @brief Lost scans so far, including those pending since the last scan.
@@ -38,10 +41,16 @@ class ScanLossEstimator {
 
  private:
   void update_period();
+  void remember_gap(std::int64_t start, std::int64_t end, std::int64_t missing);
   std::int64_t missing_in(std::int64_t gap_us) const;
 
   Config config_;
   std::deque<std::int64_t> scan_intervals_, pose_intervals_;
+  struct Gap {
+    std::int64_t start, end, missing;
+    std::vector<std::int64_t> late;  ///< utimes of late scans already taken back
+  };
+  std::deque<Gap> recent_gaps_;          ///< the last gaps counted as loss (late scans are looked up here)
   std::vector<std::int64_t> uncounted_;  ///< gaps seen before the period was known (counted once it is)
   std::int64_t period_us_ = 0;
   std::int64_t first_scan_ = 0, first_pose_ = 0;  ///< scans due between the first pose and the first scan are lost too

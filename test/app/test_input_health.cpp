@@ -96,6 +96,18 @@ TEST_CASE("scan loss estimate: no loss on a steady stream, the true count under 
       CHECK(e.lost() == 300 - received);  // before the first scan, between scans, after the last one
     }
   }
+  SECTION("a scan that arrives after its successor was late, not lost") {
+    ScanLossEstimator e;
+    for (int i = 0; i < 20; ++i) e.on_scan(i * kPeriod);
+    e.on_scan(21 * kPeriod);  // 20 is late
+    CHECK(e.lost() == 1);
+    e.on_late_scan(20 * kPeriod);
+    CHECK(e.lost() == 0);
+    e.on_late_scan(20 * kPeriod);  // a copy of it changes nothing
+    e.on_late_scan(21 * kPeriod);  // nor does a duplicate of the newest
+    CHECK(e.lost() == 0);
+    CHECK(e.received() == 22);
+  }
   SECTION("a clock jump is not a gap") {
     ScanLossEstimator e;
     for (int i = 0; i < 50; ++i) e.on_scan(i * kPeriod);

@@ -379,10 +379,8 @@ TEST_CASE("fault matrix, replay: every input fault is counted, no wrong loop is 
     INFO(o.log);
     CHECK(o.status.channels[0].received == kScans);
     CHECK(o.status.invalid_scans == f.affected);
-    // KNOWN ENGINE DEFECT (reported to the lead; this check fails until it is fixed): every scan reached loopd, but
-    // each late one is counted twice, as invalid and as lost (the early scan's 200 ms interval is taken for a gap of
-    // one lost scan, and the late scan that fills it, rejected as stale, does not take it back): 30 swaps gave
-    // invalid_scans 30 and scans_lost_estimate 30.
+    // Every scan reached loopd: a late one is rejected (invalid) but not also counted as lost (the early scan's
+    // 200 ms interval looked like a gap of one lost scan until the late one arrived).
     CHECK(o.status.scans_lost_estimate == 0);
     CHECK(o.status.clock_jumps == 0);
     CHECK(o.status.odometry_resets == 0);
