@@ -20,6 +20,7 @@
 #include <loopd/status_t.hpp>
 
 #include "lcm_log.hpp"
+#include "support/process.hpp"
 #include "message_convert.hpp"
 #include "support/fault_log.hpp"
 #include "support/run_command.hpp"
@@ -191,30 +192,7 @@ std::int64_t rejected(const status_t& s, int channel) {
   return c.received - c.accepted - c.malformed;
 }
 
-// ---- live helpers (as test_live.cpp) ----
-int run_quiet(const std::string& cmd) {
-  const int status = std::system((cmd + " >/dev/null 2>&1").c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-pid_t spawn(const std::vector<std::string>& args) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    execvp(argv[0], argv.data());
-    _exit(127);
-  }
-  return pid;
-}
-
-int stop(pid_t pid) {
-  kill(pid, SIGTERM);
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using loopd::test::spawn;
 
 /// loopd live on UDP multicast (ttl=0, loopback) while lcm-logplayer plays `drive` at `speed`; lcm-logger records.
 Outcome live(const std::string& drive, double speed, const std::string& out) {
@@ -225,10 +203,10 @@ Outcome live(const std::string& drive, double speed, const std::string& out) {
   const pid_t loopd = spawn({kBin + "/daemon/loopd", "--sensor", "vlp16", "--quiet", "--lcm-url", url});
   const pid_t logger = spawn({"lcm-logger", "--lcm-url=" + url, "-c", "LOOP_EVENT|CORRECTED_TRAJECTORY|LOOPD_STATUS", "-f", out});
   std::this_thread::sleep_for(std::chrono::seconds(2));
-  const int player = run_quiet("lcm-logplayer -l '" + url + "' -s " + std::to_string(speed) + " -e 'LIDAR_SCAN|ODOMETRY_POSE' " + drive);
+  const int player = loopd::test::run_quiet("lcm-logplayer -l '" + url + "' -s " + std::to_string(speed) + " -e 'LIDAR_SCAN|ODOMETRY_POSE' " + drive);
   std::this_thread::sleep_for(std::chrono::seconds(4));  // let the workers finish and a status go out
-  o.exit_code = stop(loopd);
-  stop(logger);
+  o.exit_code = loopd::test::stop_process(loopd);
+  loopd::test::stop_process(logger);
   o.log = "lcm-logplayer exit " + std::to_string(player);
   read_published(out, &o);
   evaluate(drive, out, &o);
@@ -467,7 +445,7 @@ TEST_CASE("fault matrix, replay: every input fault is counted, no wrong loop is 
 }
 
 TEST_CASE("fault matrix, live: a 5x scan flood and a lossy drive beside lcm-logplayer") {
-  if (run_quiet("ip route get 239.255.76.67 | grep -q 'dev lo'") != 0) {
+  if (loopd::test::run_quiet("ip route get 239.255.76.67 | grep -q 'dev lo'") != 0) {
     WARN("skipped: multicast 239.255.76.0/24 is not routed through loopback (as root: ip link set lo multicast on; "
          "ip route add 239.255.76.0/24 dev lo)");
     return;

@@ -16,6 +16,7 @@
 #include <loopd/status_t.hpp>
 
 #include "lcm_log.hpp"
+#include "support/process.hpp"
 #include "support/hostile_log.hpp"
 #include "message_convert.hpp"
 
@@ -25,29 +26,7 @@ namespace fs = std::filesystem;
 namespace {
 const std::string kBin = LOOPD_BINARY_DIR;
 
-int run(const std::string& cmd) {
-  const int status = std::system((cmd + " >/dev/null 2>&1").c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-pid_t spawn(const std::vector<std::string>& args) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    execvp(argv[0], argv.data());
-    _exit(127);
-  }
-  return pid;
-}
-
-int stop(pid_t pid) {
-  kill(pid, SIGTERM);
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using loopd::test::spawn;
 
 struct Published {
   std::set<std::pair<std::int64_t, std::int64_t>> accepted;  // (query utime, match utime)
@@ -74,7 +53,7 @@ Published read_published(const std::string& path) {
 }  // namespace
 
 TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops nothing and survives crafted scans") {
-  if (run("ip route get 239.255.76.67 | grep -q 'dev lo'") != 0) {
+  if (loopd::test::run_quiet("ip route get 239.255.76.67 | grep -q 'dev lo'") != 0) {
     WARN("skipped: multicast 239.255.76.0/24 is not routed through loopback (as root: ip link set lo multicast on; "
          "ip route add 239.255.76.0/24 dev lo)");
     return;
@@ -82,8 +61,8 @@ TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops n
   const fs::path dir = fs::temp_directory_path() / ("loopd_live_" + std::to_string(getpid()));
   fs::create_directories(dir);
   const std::string drive = (dir / "drive.lcmlog").string();
-  REQUIRE(run(kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 340 --seed 11 --route block --quiet") == 0);
-  REQUIRE(run(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + drive + " --output " + (dir / "replay.lcmlog").string()) == 0);
+  REQUIRE(loopd::test::run_quiet(kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 340 --seed 11 --route block --quiet") == 0);
+  REQUIRE(loopd::test::run_quiet(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + drive + " --output " + (dir / "replay.lcmlog").string()) == 0);
   const Published replay = read_published((dir / "replay.lcmlog").string());
 
   const std::string port = std::to_string(7700 + getpid() % 200);
@@ -94,10 +73,10 @@ TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops n
   // The drive as played carries the crafted scans that used to stop loopd (bounded decoding must count them).
   const std::string played = (dir / "played.lcmlog").string();
   REQUIRE(loopd::test::copy_with_crafted_scans(drive, played, channels::kScan, 200, false) == 3);
-  REQUIRE(run("lcm-logplayer -l '" + url + "' -s 1 -e 'LIDAR_SCAN|ODOMETRY_POSE' " + played) == 0);
+  REQUIRE(loopd::test::run_quiet("lcm-logplayer -l '" + url + "' -s 1 -e 'LIDAR_SCAN|ODOMETRY_POSE' " + played) == 0);
   std::this_thread::sleep_for(std::chrono::seconds(4));  // let the workers finish and a status go out
-  CHECK(stop(loopd) == 0);
-  stop(logger);
+  CHECK(loopd::test::stop_process(loopd) == 0);
+  loopd::test::stop_process(logger);
 
   const Published live = read_published((dir / "live.lcmlog").string());
   REQUIRE(live.has_status);
