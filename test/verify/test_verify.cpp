@@ -16,6 +16,7 @@
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
+#include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/verify/verify.hpp"
 #include "support/data_dir.hpp"
 #include "verify/synthetic_scene.hpp"

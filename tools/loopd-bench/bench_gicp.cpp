@@ -21,7 +21,7 @@
 #include "loopd/registration/gicp.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
-#include "loopd/verify/prepare_scan.hpp"
+#include "loopd/pipeline/prepare_scan.hpp"
 #include "pcl_peers_gicp.hpp"
 #include "tool_output.hpp"
 

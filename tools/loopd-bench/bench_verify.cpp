@@ -10,6 +10,7 @@
 #include "loopd/core/stopwatch.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
+#include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/verify/verify.hpp"
 #include "tool_output.hpp"
 

@@ -6,6 +6,7 @@
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/pose.hpp"
 #include "loopd/io/cloud_file.hpp"
+#include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/verify/verify.hpp"
 #include "tool_output.hpp"
 

@@ -14,6 +14,7 @@
 #include "loopd/descriptor/m2dp.hpp"
 #include "loopd/pipeline/distance_gate.hpp"
 #include "loopd/pipeline/keyframe_selector.hpp"
+#include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/verify/verify.hpp"
 
 namespace loopd {

@@ -8,7 +8,7 @@
 namespace loopd {
 
 /// @brief Settings of align_gicp. Defaults are tuned for loop closure on clouds voxel-downsampled to ~0.6 m
-/// (see verify/prepare_scan.hpp for the voxel-size rationale).
+/// (see pipeline/prepare_scan.hpp for the voxel-size rationale).
 struct GicpConfig {
   int k_neighbors = 20;    ///< neighbours for each point's covariance (Ren 2019, Eq. 2)
   double epsilon = 0.001;  ///< smallest eigenvalue of the normalised covariance, diag(eps, 1, 1) (Ren 2019, Eq. 3)

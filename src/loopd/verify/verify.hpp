@@ -8,7 +8,7 @@
 
 #include "loopd/registration/four_pcs.hpp"
 #include "loopd/registration/gicp.hpp"
-#include "loopd/verify/prepare_scan.hpp"
+#include "loopd/keyframe/prepared_scan.hpp"
 
 namespace loopd {
 
