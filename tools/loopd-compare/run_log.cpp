@@ -1,0 +1,81 @@
+#include "run_log.hpp"
+
+#include <loopd/loop_event_t.hpp>
+#include <loopd/trajectory_t.hpp>
+
+#include "lcm_log.hpp"
+#include "loopd/core/pose.hpp"
+
+namespace loopd::tools {
+namespace {
+
+LoopDecision decision_of(const loop_event_t& msg) {
+  LoopDecision d;
+  d.query_id = msg.query_id;
+  d.match_id = msg.match_id;
+  d.status = msg.status;
+  d.stage = msg.stage;
+  d.T_match_query = from_row_major(msg.T_match_query);
+  return d;
+}
+
+std::vector<KeyframeRecord> keyframes_of(const trajectory_t& msg) {
+  std::vector<KeyframeRecord> out;
+  out.reserve(msg.keyframes.size());
+  for (const auto& k : msg.keyframes) {
+    KeyframeRecord r;
+    r.id = k.id;
+    r.position = Eigen::Vector3d(k.position[0], k.position[1], k.position[2]);
+    r.orientation = Eigen::Quaterniond(k.orientation[0], k.orientation[1], k.orientation[2], k.orientation[3]);
+    out.push_back(r);
+  }
+  return out;
+}
+
+void note_malformed(RunLog* run, const std::string& channel, const std::string& why) {
+  if (run->malformed++ == 0) run->first_malformed = channel + " event " + std::to_string(run->events) + ": " + why;
+}
+
+}  // namespace
+
+bool read_run_log(const std::string& path, const CompareChannels& channels, RunLog* run, std::string* error) {
+  LogReader reader;
+  if (!reader.open(path, error)) return false;
+  LogEvent ev;
+  loop_event_t loop_msg;
+  trajectory_t traj_msg;
+  std::string why;
+  while (reader.next(&ev)) {
+    ++run->events;
+    if (ev.channel == channels.loop_event) {
+      if (!LogReader::decode(ev, &loop_msg, &why)) {
+        note_malformed(run, ev.channel, why);
+        continue;
+      }
+      run->decisions.push_back(decision_of(loop_msg));
+    } else if (ev.channel == channels.trajectory) {
+      if (!LogReader::decode(ev, &traj_msg, &why)) {
+        note_malformed(run, ev.channel, why);
+        continue;
+      }
+      ++run->revisions;
+      // The LAST revision is the corrected trajectory (revisions increase with every correction).
+      if (run->last_revision < 0 || traj_msg.revision >= run->last_revision) {
+        run->last_revision = traj_msg.revision;
+        run->trajectory = keyframes_of(traj_msg);
+      }
+    }
+  }
+  run->problems = reader.problems();
+  if (run->decisions.empty() && run->revisions == 0 && run->malformed == 0) {
+    if (error) {
+      *error = path + ": no '" + channels.loop_event + "' or '" + channels.trajectory + "' events in " +
+               std::to_string(run->events) + " LCM events (not a loopd output log?)";
+      if (!run->problems.empty()) *error += "; " + run->problems;
+    }
+    return false;
+  }
+  return true;
+}
+
+}  // namespace loopd::tools
