@@ -43,7 +43,7 @@ class OutputSink : public EngineSink {
     publish(node_.loop_event_channel, t, to_message(d, t));
     if (!node_.quiet && d.status == LoopStatus::kAccepted)
       std::fprintf(stderr, "loopd: loop accepted: keyframe %lld -> %lld (descriptor %.3f, lcp %.2f, icp %.3f m, %.0f ms)\n",
-                   static_cast<long long>(d.query_id), static_cast<long long>(d.match_id), d.descriptor_distance, d.lcp_fraction,
+                   static_cast<long long>(d.query.index), static_cast<long long>(d.match.index), d.descriptor_distance, d.lcp_fraction,
                    d.icp_residual, d.ms_total);
     last_data_utime_ = d.query_utime;
   }

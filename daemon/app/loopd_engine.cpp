@@ -126,7 +126,8 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     residual_since_keyframe_ += s.residual_sum;
     if (!selector_.accept(s.pose.T_world_sensor, s.utime)) continue;
     Job job;
-    job.input.id = next_keyframe_id_++;
+    job.sequence = next_sequence_++;
+    job.input.key = KeyframeKey{session_, next_keyframe_index_++};
     job.input.utime = s.utime;
     job.input.T_odom_sensor = s.pose.T_world_sensor;
     job.input.residual = residual_since_keyframe_;
@@ -154,7 +155,7 @@ void LoopdEngine::submit(Job job) {
       std::lock_guard<std::mutex> s(stats_mutex_);
       ++stats_.shed;
     }
-    complete(shed.input.id, shed.input, nullptr);
+    complete(shed.sequence, shed.input, nullptr);
     lock.lock();
   }
   queue_.push_back(std::move(job));
@@ -180,7 +181,7 @@ void LoopdEngine::worker_loop() {
       std::lock_guard<std::mutex> s(stats_mutex_);
       ++stats_.feature_failures;
     }
-    complete(job.input.id, job.input, features);
+    complete(job.sequence, job.input, features);
     {
       std::lock_guard<std::mutex> lock(queue_mutex_);
       --busy_;
@@ -188,9 +189,9 @@ void LoopdEngine::worker_loop() {
   }
 }
 
-void LoopdEngine::complete(std::int64_t id, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features) {
+void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features) {
   std::unique_lock<std::mutex> lock(sequence_mutex_);
-  ready_.emplace(id, std::make_pair(input, std::move(features)));
+  ready_.emplace(sequence, std::make_pair(input, std::move(features)));
   ready_backlog_.store(static_cast<int>(ready_.size()));
   if (sequencing_) return;  // the thread that is sequencing takes it (checked and cleared under the same lock)
   sequencing_ = true;
@@ -232,7 +233,7 @@ void LoopdEngine::finish() {
     stats_.pending_scans = 0;
   }
   std::unique_lock<std::mutex> lock(done_mutex_);
-  while (!done_cv_.wait_for(lock, std::chrono::milliseconds(20), [&] { return sequenced_.load() >= next_keyframe_id_; })) {
+  while (!done_cv_.wait_for(lock, std::chrono::milliseconds(20), [&] { return sequenced_.load() >= next_sequence_; })) {
   }
 }
 

@@ -89,6 +89,7 @@ class LoopdEngine {
 
  private:
   struct Job {
+    std::int64_t sequence = 0;  ///< order of submission: the sequential stage takes keyframes in this order
     KeyframeInput input;
     PointCloud cloud;
   };
@@ -103,7 +104,7 @@ class LoopdEngine {
   /// finished keyframes wait for the sequential stage.
   bool full() const { return static_cast<int>(queue_.size()) >= config_.queue_capacity || ready_backlog_.load() >= ready_capacity(); }
   void worker_loop();
-  void complete(std::int64_t id, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features);
+  void complete(std::int64_t sequence, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features);
 
   EngineConfig config_;
   EngineSink* sink_;
@@ -115,7 +116,9 @@ class LoopdEngine {
   SensorLayoutWatch layout_;
   KeyframeSelector selector_;
   LoopDetector detector_;
-  std::int64_t next_keyframe_id_ = 0;
+  SessionId session_ = 0;               ///< one session per process until the map store brings sessions
+  std::int64_t next_keyframe_index_ = 0;
+  std::int64_t next_sequence_ = 0;
   double residual_since_keyframe_ = 0.0;
 
   mutable std::mutex queue_mutex_;

@@ -12,9 +12,9 @@ loop_event_t to_message(const LoopDecision& d, std::int64_t utime) {
   loop_event_t m{};
   m.utime = utime;
   m.event_id = d.event_id;
-  m.query_id = d.query_id;
+  m.query_id = d.query.index;
   m.query_utime = d.query_utime;
-  m.match_id = d.match_id;
+  m.match_id = d.match.index;
   m.match_utime = d.match_utime;
   m.status = static_cast<int8_t>(d.status);
   m.stage = d.stage;
@@ -47,7 +47,7 @@ trajectory_t to_message(const CorrectionOutput& c, std::int64_t utime) {
   m.keyframes.resize(c.T_map_sensor.size());
   for (std::size_t i = 0; i < c.T_map_sensor.size(); ++i) {
     keyframe_pose_t& k = m.keyframes[i];
-    k.id = i < c.ids.size() ? c.ids[i] : static_cast<std::int64_t>(i);
+    k.id = i < c.keys.size() ? c.keys[i].index : static_cast<std::int64_t>(i);
     k.utime = i < c.utimes.size() ? c.utimes[i] : 0;
     const Eigen::Vector3d t = c.T_map_sensor[i].translation();
     const Eigen::Quaterniond q(c.T_map_sensor[i].linear());

@@ -70,8 +70,8 @@ TEST_CASE("pose_t round-trips, and non-finite poses are refused") {
 TEST_CASE("loop_event_t, trajectory_t and status_t round-trip") {
   LoopDecision d;
   d.event_id = 5;
-  d.query_id = 100;
-  d.match_id = 3;
+  d.query = KeyframeKey{0, 100};
+  d.match = KeyframeKey{0, 3};
   d.query_utime = 10'000'000;
   d.match_utime = 300'000;
   d.status = LoopStatus::kAccepted;
@@ -87,7 +87,7 @@ TEST_CASE("loop_event_t, trajectory_t and status_t round-trip") {
   CorrectionOutput c;
   c.revision = 2;
   c.method = "heuristic";
-  c.ids = {0, 1};
+  c.keys = {KeyframeKey{0, 0}, KeyframeKey{0, 1}};
   c.utimes = {10, 20};
   c.T_map_sensor = {Eigen::Isometry3d::Identity(), make_isometry(3, 0, 0, 0.3)};
   const trajectory_t t = round_trip(to_message(c, 77));

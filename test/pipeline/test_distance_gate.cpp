@@ -32,7 +32,7 @@ TEST_CASE("gate candidates equal a brute-force search, nearest first") {
     p += d;
     for (int k = 0; k < 2; ++k) p[k] = std::fmod(std::abs(p[k]), 150.0) - 75.0;
     travelled += d.norm();
-    all.push_back({i, p, travelled});
+    all.push_back({KeyframeKey{0, i}, p, travelled});
   }
   for (const auto& e : all) g.add(e);
   REQUIRE(g.size() == all.size());
@@ -41,13 +41,13 @@ TEST_CASE("gate candidates equal a brute-force search, nearest first") {
   int nonempty = 0;
   for (int t = 0; t < 200; ++t) {
     GateEntry q = all[static_cast<std::size_t>(pick(rng))];
-    q.id += 1;  // the query is the next keyframe at that place
+    q.key.index += 1;  // the query is the next keyframe at that place
     const double r = rad(rng);
     std::vector<GateCandidate> expected;
     for (const auto& e : all) {
-      if (q.id - e.id < cfg.min_index_gap || q.travelled - e.travelled < cfg.min_travel_gap) continue;
+      if (q.key.index - e.key.index < cfg.min_index_gap || q.travelled - e.travelled < cfg.min_travel_gap) continue;
       const double d = (e.position - q.position).norm();
-      if (d <= r) expected.push_back({e.id, d});
+      if (d <= r) expected.push_back({e.key, d});
     }
     std::sort(expected.begin(), expected.end(), [](const GateCandidate& a, const GateCandidate& b) { return a.distance < b.distance; });
     const std::vector<GateCandidate> got = g.candidates(q, r);
@@ -55,7 +55,7 @@ TEST_CASE("gate candidates equal a brute-force search, nearest first") {
     for (std::size_t i = 0; i < got.size(); ++i) {
       CHECK(got[i].distance == Approx(expected[i].distance));
       if (i > 0) CHECK(got[i].distance >= got[i - 1].distance);
-      CHECK(q.id - got[i].id >= cfg.min_index_gap);
+      CHECK(q.key.index - got[i].key.index >= cfg.min_index_gap);
     }
     nonempty += got.empty() ? 0 : 1;
   }
@@ -66,31 +66,31 @@ TEST_CASE("recent keyframes are no candidates: index gap and travelled-distance 
   DistanceGateConfig cfg;  // 30 keyframes, 60 m
   DistanceGate g(cfg);
   // A car waiting at a light: 50 keyframes (time rule) at the same place, 10 m travelled in all.
-  for (int i = 0; i < 50; ++i) g.add({i, Eigen::Vector3d(0.2 * i, 0, 0), 0.2 * i});
-  const GateEntry waiting{50, Eigen::Vector3d(10, 0, 0), 10.0};
+  for (int i = 0; i < 50; ++i) g.add({KeyframeKey{0, i}, Eigen::Vector3d(0.2 * i, 0, 0), 0.2 * i});
+  const GateEntry waiting{KeyframeKey{0, 50}, Eigen::Vector3d(10, 0, 0), 10.0};
   CHECK(g.candidates(waiting, 40.0).empty());  // index gap met for 0..20, travel gap for none
   // The same place after a 200 m block: index and travel gaps met.
-  g.add({50, Eigen::Vector3d(100, 100, 0), 110.0});
-  const GateEntry back{51, Eigen::Vector3d(3, 0.5, 0), 210.0};
+  g.add({KeyframeKey{0, 50}, Eigen::Vector3d(100, 100, 0), 110.0});
+  const GateEntry back{KeyframeKey{0, 51}, Eigen::Vector3d(3, 0.5, 0), 210.0};
   const std::vector<GateCandidate> c = g.candidates(back, 8.0);
   REQUIRE(!c.empty());
-  CHECK(c.front().id == 15);  // x = 3.0 m exactly
+  CHECK(c.front().key.index == 15);  // x = 3.0 m exactly
   for (const auto& k : c) CHECK(k.distance <= 8.0);
   // Only 29 keyframes later but far enough travelled: still refused by the index gap.
-  const GateEntry soon{44 + 29, Eigen::Vector3d(8.8, 0, 0), 400.0};
-  for (const auto& k : g.candidates(soon, 40.0)) CHECK(soon.id - k.id >= 30);
+  const GateEntry soon{KeyframeKey{0, 44 + 29}, Eigen::Vector3d(8.8, 0, 0), 400.0};
+  for (const auto& k : g.candidates(soon, 40.0)) CHECK(soon.key.index - k.key.index >= 30);
 }
 
 TEST_CASE("after a correction the gate searches the corrected positions") {
   DistanceGate g(DistanceGateConfig{});
-  g.add({0, Eigen::Vector3d(0, 0, 0), 0.0});
-  g.add({1, Eigen::Vector3d(50, 0, 0), 50.0});
-  const GateEntry q{100, Eigen::Vector3d(0, 30, 0), 500.0};
+  g.add({KeyframeKey{0, 0}, Eigen::Vector3d(0, 0, 0), 0.0});
+  g.add({KeyframeKey{0, 1}, Eigen::Vector3d(50, 0, 0), 50.0});
+  const GateEntry q{KeyframeKey{0, 100}, Eigen::Vector3d(0, 30, 0), 500.0};
   CHECK(g.candidates(q, 10.0).empty());
-  g.update_positions({Eigen::Vector3d(0, 25, 0), Eigen::Vector3d(50, 0, 0)});  // keyframe 0 was really 5 m away
+  g.update_positions([](const KeyframeKey& k) { return k.index == 0 ? Eigen::Vector3d(0, 25, 0) : Eigen::Vector3d(50, 0, 0); });  // keyframe 0 was really 5 m away
   const auto c = g.candidates(q, 10.0);
   REQUIRE(c.size() == 1);
-  CHECK(c[0].id == 0);
+  CHECK(c[0].key.index == 0);
   CHECK(c[0].distance == Approx(5.0));
 }
 

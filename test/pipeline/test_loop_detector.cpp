@@ -45,7 +45,7 @@ TEST_CASE("loop detector: a block lap and a revisit give correct loops, reported
   for (const DriveScan& s : drive.scans) {
     if (!selector.accept(s.odometry.T_world_sensor, s.utime)) continue;
     KeyframeInput in;
-    in.id = id++;
+    in.key = KeyframeKey{0, id++};
     in.utime = s.utime;
     in.T_odom_sensor = s.odometry.T_world_sensor;
     in.residual = s.odometry.residual;
@@ -62,30 +62,30 @@ TEST_CASE("loop detector: a block lap and a revisit give correct loops, reported
     });
     for (const LoopDecision& d : out.decisions) {
       returned.push_back(d);
-      INFO("keyframe " << d.query_id << " -> " << d.match_id << ": " << d.stage << " (" << d.reason << ")");
-      CHECK(d.query_id == in.id);
-      CHECK(d.query_id - d.match_id >= cfg.gate.min_index_gap);
+      INFO("keyframe " << d.query.index << " -> " << d.match.index << ": " << d.stage << " (" << d.reason << ")");
+      CHECK(d.query == in.key);
+      CHECK(d.query.index - d.match.index >= cfg.gate.min_index_gap);
       CHECK(d.gate_distance <= d.gate_radius);
       if (d.stage != "descriptor") {
-        ++verified_per_query[d.query_id];
+        ++verified_per_query[d.query.index];
         CHECK(d.descriptor_distance <= cfg.max_descriptor_distance);
       }
       if (d.status != LoopStatus::kAccepted) continue;
       ++accepted;
-      const Eigen::Isometry3d gt = truth[static_cast<std::size_t>(d.match_id)].inverse() * truth[static_cast<std::size_t>(d.query_id)];
+      const Eigen::Isometry3d gt = truth[static_cast<std::size_t>(d.match.index)].inverse() * truth[static_cast<std::size_t>(d.query.index)];
       const Eigen::Isometry3d err = gt.inverse() * d.T_match_query;
       CHECK(err.translation().norm() < 0.2);
       CHECK(rotation_deg(err) < 1.0);
       // A real revisit: the same place (ground truth within the 4PCS/GICP reach) after going round the block.
       CHECK(gt.translation().norm() < 5.0);
-      CHECK(route[static_cast<std::size_t>(d.query_id)] - route[static_cast<std::size_t>(d.match_id)] > 150.0);
+      CHECK(route[static_cast<std::size_t>(d.query.index)] - route[static_cast<std::size_t>(d.match.index)] > 150.0);
     }
     if (out.correction) {
       ++corrections;
       REQUIRE(!out.decisions.empty());
       CHECK(out.decisions.back().status == LoopStatus::kAccepted);
       CHECK(out.correction->loop_event_id == out.decisions.back().event_id);
-      CHECK(out.correction->T_map_sensor.size() == static_cast<std::size_t>(in.id + 1));
+      CHECK(out.correction->T_map_sensor.size() == static_cast<std::size_t>(in.key.index + 1));
       last = out.correction;
     }
   }

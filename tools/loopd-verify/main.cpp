@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
     for (const auto& [k, v] : j["scores"].items()) j[k] = v;
     j["ms"] = {{"fourpcs", r.ms_fourpcs}, {"gicp", r.ms_gicp}, {"hungarian", r.ms_hungarian}, {"total", r.ms_total},
                {"prepare_query", query.ms_total}, {"prepare_match", match.ms_total}};
-    std::vector<double> info(r.information.data(), r.information.data() + 36);  // symmetric: order does not matter
+    std::vector<double> info(r.information.data(), r.information.data() + 36);  // (t, r) order, core/information.hpp
     j["information"] = info;
     j["points"] = {{"query", query.points.size()}, {"match", match.points.size()}};
     j["bytes"] = {{"query", query.bytes()}, {"match", match.bytes()}};

@@ -48,7 +48,7 @@ std::vector<double> edge_weights(const std::vector<Eigen::Isometry3d>& poses, co
 HeuristicCorrectionResult apply_heuristic_correction(std::vector<Eigen::Isometry3d>& poses, const std::vector<double>& weights,
                                                      const LoopConstraint& loop, bool rotate_positions) {
   HeuristicCorrectionResult result;
-  const int n = static_cast<int>(poses.size());
+  const auto n = static_cast<PoseIndex>(poses.size());
   if (loop.query_index < 0 || loop.match_index < 0 || loop.query_index >= n || loop.match_index >= n) {
     result.reason = "loop index out of range";
     return result;
@@ -57,34 +57,34 @@ HeuristicCorrectionResult apply_heuristic_correction(std::vector<Eigen::Isometry
     result.reason = "zero-length loop (query == match)";
     return result;
   }
-  const int s = std::min(loop.query_index, loop.match_index);
-  const int e = std::max(loop.query_index, loop.match_index);
+  const PoseIndex s = std::min(loop.query_index, loop.match_index);
+  const PoseIndex e = std::max(loop.query_index, loop.match_index);
   result.start_index = s;
   result.end_index = e;
   // T_se: measured pose of V_e in V_s. The loop measurement itself is no error (Vlaminck 2019, Sec. 4.4: R_se is
   // discarded), so the error is what remains after it: D maps the drifted V_e onto V_s * T_se.
   const Eigen::Isometry3d T_se = (s == loop.match_index) ? loop.T_match_query : loop.T_match_query.inverse();
-  const Eigen::Isometry3d target_e = poses[s] * T_se;
-  const Eigen::Isometry3d D = target_e * poses[e].inverse();
+  const Eigen::Isometry3d target_e = poses[static_cast<std::size_t>(s)] * T_se;
+  const Eigen::Isometry3d D = target_e * poses[static_cast<std::size_t>(e)].inverse();
   const Eigen::Quaterniond q_D(D.linear());
   const Eigen::AngleAxisd aa_D(q_D.normalized());
   // Rotation about c = position of V_s: D(x) = R_D (x - c) + c + u.
-  const Eigen::Vector3d c = poses[s].translation();
+  const Eigen::Vector3d c = poses[static_cast<std::size_t>(s)].translation();
   const Eigen::Vector3d u = D.linear() * c + D.translation() - c;
-  const Eigen::Vector3d end_shift = target_e.translation() - poses[e].translation();
-  result.correction_translation = (target_e.translation() - poses[e].translation()).norm();
+  const Eigen::Vector3d end_shift = target_e.translation() - poses[static_cast<std::size_t>(e)].translation();
+  result.correction_translation = (target_e.translation() - poses[static_cast<std::size_t>(e)].translation()).norm();
   result.correction_rotation = aa_D.angle();
 
   // d(V_s, V_e) = sum of c_ij on the path (Eq. 3 denominator).
   double total = 0.0;
-  for (int i = s + 1; i <= e; ++i) total += weights[static_cast<std::size_t>(i)];
+  for (PoseIndex i = s + 1; i <= e; ++i) total += weights[static_cast<std::size_t>(i)];
   const bool equal = !(total > 0.0) || !std::isfinite(total);
   if (equal) total = static_cast<double>(e - s);
 
   const double angle = aa_D.angle();
   const Eigen::Vector3d axis = aa_D.axis();
   double d = 0.0;
-  for (int i = s + 1; i < e; ++i) {
+  for (PoseIndex i = s + 1; i < e; ++i) {
     d += equal ? 1.0 : weights[static_cast<std::size_t>(i)];
     const double w = d / total;  // Eq. (3)
     // slerp(I, R_D, w) = rotation by w * angle about the same axis.
@@ -95,9 +95,9 @@ HeuristicCorrectionResult apply_heuristic_correction(std::vector<Eigen::Isometry
   }
   // V_e gets exactly its target; everything after it moves rigidly with D.
   poses[static_cast<std::size_t>(e)] = target_e;
-  for (int i = e + 1; i < n; ++i) poses[static_cast<std::size_t>(i)] = D * poses[static_cast<std::size_t>(i)];
+  for (PoseIndex i = e + 1; i < n; ++i) poses[static_cast<std::size_t>(i)] = D * poses[static_cast<std::size_t>(i)];
   // Keep rotations orthonormal after many corrections (the rigid tail only multiplies by D, already orthonormal).
-  for (int i = s + 1; i < e; ++i) {
+  for (PoseIndex i = s + 1; i < e; ++i) {
     Eigen::Isometry3d& P = poses[static_cast<std::size_t>(i)];
     P.linear() = Eigen::Quaterniond(P.linear()).normalized().toRotationMatrix();
   }
@@ -113,23 +113,23 @@ std::vector<Eigen::Isometry3d> correct_heuristic(const std::vector<Eigen::Isomet
 }
 
 HeuristicCorrectionResult apply_heuristic_with_spans(std::vector<Eigen::Isometry3d>& poses, const std::vector<double>& base_weights,
-                                                     const LoopConstraint& loop, std::vector<std::pair<int, int>>& closed_spans,
+                                                     const LoopConstraint& loop, std::vector<ClosedSpan>& closed_spans,
                                                      const HeuristicCorrectionConfig& config) {
-  const int n = static_cast<int>(poses.size());
-  const int s = std::clamp(std::min(loop.query_index, loop.match_index), 0, std::max(n - 1, 0));
-  const int e = std::clamp(std::max(loop.query_index, loop.match_index), 0, std::max(n - 1, 0));
+  const auto n = static_cast<PoseIndex>(poses.size());
+  const PoseIndex s = std::clamp(std::min(loop.query_index, loop.match_index), PoseIndex{0}, std::max(n - 1, PoseIndex{0}));
+  const PoseIndex e = std::clamp(std::max(loop.query_index, loop.match_index), PoseIndex{0}, std::max(n - 1, PoseIndex{0}));
   std::vector<double> w = base_weights;
   w.resize(poses.size(), 1.0);
   if (config.closed_span_weight < 1.0 && !closed_spans.empty() && e > s) {
     // An edge (i-1, i) inside a closed span [a, b] (a < i <= b) keeps that loop closed when it takes no share.
     std::vector<char> closed(static_cast<std::size_t>(e - s + 1), 0);
     for (const auto& span : closed_spans)
-      for (int i = std::max(span.first + 1, s + 1); i <= std::min(span.second, e); ++i) closed[static_cast<std::size_t>(i - s)] = 1;
+      for (PoseIndex i = std::max(span.first + 1, s + 1); i <= std::min(span.second, e); ++i) closed[static_cast<std::size_t>(i - s)] = 1;
     double free_total = 0.0;
-    for (int i = s + 1; i <= e; ++i)
+    for (PoseIndex i = s + 1; i <= e; ++i)
       if (!closed[static_cast<std::size_t>(i - s)]) free_total += w[static_cast<std::size_t>(i)];
     if (free_total > 0.0)
-      for (int i = s + 1; i <= e; ++i)
+      for (PoseIndex i = s + 1; i <= e; ++i)
         if (closed[static_cast<std::size_t>(i - s)]) w[static_cast<std::size_t>(i)] *= config.closed_span_weight;
   }
   HeuristicCorrectionResult r = apply_heuristic_correction(poses, w, loop, config.rotate_positions);
@@ -146,11 +146,11 @@ std::vector<Eigen::Isometry3d> correct_heuristic_all(const std::vector<Eigen::Is
   for (const auto& l : loops) order.push_back(&l);
   // Inside-out: by end index, then the shorter loop first.
   std::stable_sort(order.begin(), order.end(), [](const LoopConstraint* a, const LoopConstraint* b) {
-    const int ea = std::max(a->query_index, a->match_index), eb = std::max(b->query_index, b->match_index);
+    const PoseIndex ea = std::max(a->query_index, a->match_index), eb = std::max(b->query_index, b->match_index);
     if (ea != eb) return ea < eb;
     return std::min(a->query_index, a->match_index) > std::min(b->query_index, b->match_index);
   });
-  std::vector<std::pair<int, int>> spans;
+  std::vector<ClosedSpan> spans;
   for (const LoopConstraint* l : order) apply_heuristic_with_spans(out, base, *l, spans, config);
   return out;
 }

@@ -1,23 +1,33 @@
 #pragma once
 // One-pass heuristic loop correction (Vlaminck et al. 2019, Sec. 4.4).
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "loopd/core/information.hpp"
+
 namespace loopd {
+
+/// @brief Position of a keyframe in the pose sequence handed to the correction (not a keyframe's name: the caller maps
+/// its KeyframeKeys to positions).
+using PoseIndex = std::int64_t;
+/// @brief [start, end] positions of a loop already closed.
+using ClosedSpan = std::pair<PoseIndex, PoseIndex>;
 
 /// @brief A verified loop: keyframe `query_index` (usually the newer one) seen again at keyframe `match_index`.
 /// T_match_query maps query-sensor coordinates into match-sensor coordinates, i.e. the corrected poses must satisfy
 /// T_world_query = T_world_match * T_match_query.
 struct LoopConstraint {
-  int query_index = -1;
-  int match_index = -1;
+  PoseIndex query_index = -1;  ///< position of the query keyframe in the pose sequence being corrected
+  PoseIndex match_index = -1;  ///< position of the match keyframe in that sequence
   Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
-  /// Information (inverse covariance) of T_match_query, e.g. the GICP Hessian (Ren 2019, Sec. 3.4.1).
-  /// Ordering: (tx, ty, tz [m], rx, ry, rz [rad]), a right perturbation in the query frame.
-  /// All zero = unknown (the pose graph then uses PoseGraphConfig::loop_translation_sigma / loop_rotation_sigma).
-  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  /// Information of T_match_query, e.g. the GICP Hessian (Ren 2019, Sec. 3.4.1), in loopd's one order
+  /// (core/information.hpp). All zero = unknown (the pose graph then uses PoseGraphConfig::loop_translation_sigma /
+  /// loop_rotation_sigma).
+  Information6d information = Information6d::Zero();
 };
 
 /// @brief Settings of the heuristic correction (Vlaminck 2019, Sec. 4.4).
@@ -53,8 +63,8 @@ std::vector<double> edge_weights(const std::vector<Eigen::Isometry3d>& poses, co
 struct HeuristicCorrectionResult {
   bool applied = false;      ///< false for a zero-length loop or indices out of range (poses unchanged)
   std::string reason;        ///< why not applied
-  int start_index = -1;      ///< s = min(query, match)
-  int end_index = -1;        ///< e = max(query, match)
+  PoseIndex start_index = -1;  ///< s = min(query, match)
+  PoseIndex end_index = -1;    ///< e = max(query, match)
   double correction_translation = 0;  ///< [m] translation of the loop error at V_e
   double correction_rotation = 0;     ///< [rad] rotation of the loop error
 };
@@ -79,7 +89,7 @@ std::vector<Eigen::Isometry3d> correct_heuristic_all(const std::vector<Eigen::Is
 /// @brief Incremental form used by LoopCorrector: applies `loop` to `poses` (already corrected for the loops whose
 /// spans are in `closed_spans`), then appends its span. base_weights from edge_weights().
 HeuristicCorrectionResult apply_heuristic_with_spans(std::vector<Eigen::Isometry3d>& poses, const std::vector<double>& base_weights,
-                                                     const LoopConstraint& loop, std::vector<std::pair<int, int>>& closed_spans,
+                                                     const LoopConstraint& loop, std::vector<ClosedSpan>& closed_spans,
                                                      const HeuristicCorrectionConfig& config);
 
 }  // namespace loopd

@@ -48,19 +48,19 @@ Eigen::Isometry3d LoopCorrector::T_map_odom() const {
   return corrected_.back() * odometry_.back().inverse();
 }
 
-int LoopCorrector::add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual) {
+PoseIndex LoopCorrector::add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual) {
   const Eigen::Isometry3d T_map_odom_now = T_map_odom();
   odometry_.push_back(T_odom_sensor);
   residuals_.push_back(residual);
   corrected_.push_back(T_map_odom_now * T_odom_sensor);
-  if (!step_information_.empty()) step_information_.push_back(Eigen::Matrix<double, 6, 6>::Zero());
-  return static_cast<int>(odometry_.size()) - 1;
+  if (!step_information_.empty()) step_information_.push_back(Information6d::Zero());
+  return static_cast<PoseIndex>(odometry_.size()) - 1;
 }
 
-int LoopCorrector::add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual, const Eigen::Matrix<double, 6, 6>& step_information) {
-  const int index = add_keyframe(T_odom_sensor, residual);
+PoseIndex LoopCorrector::add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual, const Information6d& step_information) {
+  const PoseIndex index = add_keyframe(T_odom_sensor, residual);
   if (step_information.isZero(0.0)) return index;
-  step_information_.resize(odometry_.size(), Eigen::Matrix<double, 6, 6>::Zero());
+  step_information_.resize(odometry_.size(), Information6d::Zero());
   step_information_.back() = step_information;
   return index;
 }
@@ -76,7 +76,7 @@ CorrectionResult LoopCorrector::run_graph(std::vector<Eigen::Isometry3d> warm, C
 }
 
 std::optional<std::string> LoopCorrector::check_loop(const LoopConstraint& loop) const {
-  const int n = static_cast<int>(odometry_.size());
+  const auto n = static_cast<PoseIndex>(odometry_.size());
   if (loop.query_index < 0 || loop.match_index < 0 || loop.query_index >= n || loop.match_index >= n) return "loop index out of range";
   if (loop.query_index == loop.match_index) return "zero-length loop (query == match)";
   return std::nullopt;
@@ -91,7 +91,7 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
   }
   loops_.push_back(loop);
   r.num_loops = static_cast<int>(loops_.size());
-  const int e = std::max(loop.query_index, loop.match_index);
+  const PoseIndex e = std::max(loop.query_index, loop.match_index);
   if (e < max_end_index_) {
     // Out of order (offline use): the inside-out order of correct_heuristic_all needs a full pass.
     return recorrect_all();
@@ -128,7 +128,7 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
 }
 
 CorrectionResult LoopCorrector::add_loops(const std::vector<LoopConstraint>& loops) {
-  const int n = static_cast<int>(odometry_.size());
+  const auto n = static_cast<PoseIndex>(odometry_.size());
   int skipped = 0;
   for (const LoopConstraint& l : loops) {
     if (l.query_index < 0 || l.match_index < 0 || l.query_index >= n || l.match_index >= n || l.query_index == l.match_index) {

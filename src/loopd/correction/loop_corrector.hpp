@@ -64,10 +64,10 @@ class LoopCorrector {
 
   /// @brief Appends a keyframe (odometry pose T_odom_sensor and the residual of the step ending at it, 0 = unknown).
   /// Its corrected pose is T_map_odom() * T_odom_sensor. Returns its index.
-  int add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual = 0.0);
-  /// @brief Same, with the 6x6 information (t, r order) of the odometry step ending here (e.g. from the covariance in
+  PoseIndex add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual = 0.0);
+  /// @brief Same, with the information (core/information.hpp) of the odometry step ending here (e.g. from the covariance in
   /// pose_t); the graph then uses it instead of the residual-based sigma for that edge. Zero = unknown.
-  int add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual, const Eigen::Matrix<double, 6, 6>& step_information);
+  PoseIndex add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual, const Information6d& step_information);
 
   /// @brief Stores the loop and re-corrects the whole trajectory. Zero-length loops and bad indices are rejected
   /// (ok = false, nothing changes); the same keyframe pair twice is accepted (the graph averages them).
@@ -107,10 +107,10 @@ class LoopCorrector {
   std::vector<Eigen::Isometry3d> corrected_;
   std::vector<LoopConstraint> loops_;
   std::vector<PlaneObservation> planes_;
-  std::vector<Eigen::Matrix<double, 6, 6>> step_information_;  ///< empty until a keyframe brings one
-  std::vector<std::pair<int, int>> closed_spans_;
-  int max_end_index_ = -1;
-  int last_graph_index_ = -1;  ///< newest loop end when the graph was last solved online
+  std::vector<Information6d> step_information_;  ///< empty until a keyframe brings one
+  std::vector<ClosedSpan> closed_spans_;
+  PoseIndex max_end_index_ = -1;
+  PoseIndex last_graph_index_ = -1;  ///< newest loop end when the graph was last solved online
 };
 
 }  // namespace loopd

@@ -16,7 +16,7 @@ enum class RobustLoss { kNone, kHuber, kCauchy };
 /// n . x + d = 0 for points x on the plane, |n| = 1. All observations with the same plane_id constrain one plane
 /// node (a unit normal + offset in the world frame, optimised together with the poses).
 struct PlaneObservation {
-  int index = -1;                                          ///< keyframe index
+  PoseIndex index = -1;                                    ///< position of the keyframe in the pose sequence
   int plane_id = 0;                                        ///< plane node this observation belongs to
   Eigen::Vector4d plane_sensor = Eigen::Vector4d(0, 0, 1, 0);  ///< (n, d) in the sensor frame
 };

@@ -44,8 +44,8 @@ void DistanceGate::add(const GateEntry& entry) {
   entries_.push_back(entry);
 }
 
-void DistanceGate::update_positions(const std::vector<Eigen::Vector3d>& positions) {
-  for (std::size_t i = 0; i < entries_.size() && i < positions.size(); ++i) entries_[i].position = positions[i];
+void DistanceGate::update_positions(const std::function<Eigen::Vector3d(const KeyframeKey&)>& position_of) {
+  for (GateEntry& e : entries_) e.position = position_of(e.key);
   rebuild();
 }
 
@@ -65,14 +65,14 @@ std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, doub
       if (it == cells_.end()) continue;
       for (std::size_t i : it->second) {
         const GateEntry& e = entries_[i];
-        if (query.id - e.id < config_.min_index_gap) continue;
+        if (keyframes_between(e.key, query.key) < config_.min_index_gap) continue;
         if (query.travelled - e.travelled < config_.min_travel_gap) continue;
         const double d = (e.position - query.position).norm();
-        if (d <= radius) out.push_back({e.id, d});
+        if (d <= radius) out.push_back({e.key, d});
       }
     }
   }
-  std::sort(out.begin(), out.end(), [](const GateCandidate& a, const GateCandidate& b) { return a.distance < b.distance || (a.distance == b.distance && a.id < b.id); });
+  std::sort(out.begin(), out.end(), [](const GateCandidate& a, const GateCandidate& b) { return a.distance < b.distance || (a.distance == b.distance && a.key < b.key); });
   return out;
 }
 

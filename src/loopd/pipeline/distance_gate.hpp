@@ -1,11 +1,14 @@
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
+
+#include "loopd/keyframe/keyframe_key.hpp"
 
 namespace loopd {
 
@@ -16,21 +19,21 @@ struct DistanceGateConfig {
   double travel_fraction = 0.10;  ///< radius = fraction x distance since the last accepted loop (Vlaminck 2019)
   double min_radius = 8.0;        ///< [m] lower clamp
   double max_radius = 40.0;       ///< [m] upper clamp
-  int min_index_gap = 30;         ///< keyframes between query and candidate (Ren 2019 rule 1)
+  int min_index_gap = 30;         ///< keyframes between query and candidate of one session (Ren 2019 rule 1)
   double min_travel_gap = 60.0;   ///< [m] travelled distance between query and candidate (Ren 2019 rule 2)
   std::optional<std::string> validate() const;
 };
 
 /// @brief One keyframe as the gate sees it.
 struct GateEntry {
-  std::int64_t id = 0;
+  KeyframeKey key;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< current best estimate [m]
   double travelled = 0.0;                              ///< odometry distance from the first keyframe [m]
 };
 
 /// @brief Candidate returned by the gate.
 struct GateCandidate {
-  std::int64_t id = 0;
+  KeyframeKey key;
   double distance = 0.0;  ///< [m] between the estimated positions
 };
 
@@ -42,10 +45,10 @@ class DistanceGate {
 
   /// @brief Gate radius for the current distance since the last accepted loop [m].
   double radius(double travelled_since_loop) const;
-  /// @brief Adds a keyframe (ids must increase).
+  /// @brief Adds a keyframe (newer than every keyframe of its session already added).
   void add(const GateEntry& entry);
-  /// @brief Replaces every stored position (after a loop correction); index = order of add().
-  void update_positions(const std::vector<Eigen::Vector3d>& positions);
+  /// @brief Replaces every stored position with position_of(key) (after a loop correction).
+  void update_positions(const std::function<Eigen::Vector3d(const KeyframeKey&)>& position_of);
   /// @brief Keyframes within `radius` of `query` that satisfy the index and travel gaps, nearest first.
   std::vector<GateCandidate> candidates(const GateEntry& query, double radius) const;
   std::size_t size() const { return entries_.size(); }

@@ -9,12 +9,6 @@
 
 namespace loopd {
 
-struct LoopDetector::StoredKeyframe {
-  KeyframeInput input;
-  std::shared_ptr<const KeyframeFeatures> features;  ///< null when shed
-  double travelled = 0.0;
-};
-
 std::optional<std::string> LoopDetectorConfig::validate() const {
   if (!lidar_model_from_name(sensor)) return "sensor: unknown lidar model '" + sensor + "' (vlp16, hdl32, hdl64, os1-64)";
   if (auto e = keyframe.validate()) return e;
@@ -66,17 +60,71 @@ KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
   return f;
 }
 
-void LoopDetector::add_ground_plane(std::int64_t id, const KeyframeFeatures& features, const Eigen::Isometry3d& T_map_query) {
+/// @brief The verifications of one keyframe's candidates, best first. Live mode starts the others concurrently
+/// (spare cores cut the latency tail); the decision is the same either way: the first accepted candidate in rank
+/// order wins and later ones are not reported. Reads nothing that changes while it runs (guesses are made up front).
+class LoopDetector::CandidateVerifications {
+ public:
+  CandidateVerifications(const PreparedScan& query, std::vector<const PreparedScan*> matches,
+                         std::vector<std::optional<Eigen::Isometry3d>> guesses, const VerifyConfig& config, bool concurrent)
+      : query_(query), matches_(std::move(matches)), guesses_(std::move(guesses)), config_(config), pending_(matches_.size()) {
+    if (!concurrent) return;
+    for (std::size_t i = 1; i < matches_.size(); ++i) pending_[i] = std::async(std::launch::async, [this, i] { return run(i); });
+  }
+  CandidateVerifications(const CandidateVerifications&) = delete;  // the concurrent ones hold `this`
+  CandidateVerifications& operator=(const CandidateVerifications&) = delete;
+  /// @brief The verification of candidate i (waits for it, or runs it now).
+  VerifyResult get(std::size_t i) { return pending_[i].valid() ? pending_[i].get() : run(i); }
+
+ private:
+  VerifyResult run(std::size_t i) const { return verify_candidate(query_, *matches_[i], guesses_[i], config_); }
+
+  const PreparedScan& query_;
+  std::vector<const PreparedScan*> matches_;
+  std::vector<std::optional<Eigen::Isometry3d>> guesses_;
+  const VerifyConfig& config_;
+  std::vector<std::future<VerifyResult>> pending_;
+};
+
+LoopDetector::CandidateVerifications LoopDetector::start_verifications(const KeyframeRecord& query, const std::vector<RankedCandidate>& ranked,
+                                                                       std::size_t count, const Eigen::Isometry3d& T_map_query) const {
+  // Right after an accepted loop the corrected map is locally consistent: its relative pose is the guess.
+  const bool from_map = guided(query.key);
+  std::vector<const PreparedScan*> matches;
+  std::vector<std::optional<Eigen::Isometry3d>> guesses;
+  for (std::size_t i = 0; i < count; ++i) {
+    const KeyframeRecord& match = *ranked[i].match;
+    matches.push_back(&match.features->prepared);
+    if (from_map) guesses.emplace_back(corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(match.key))].inverse() * T_map_query);
+    else guesses.emplace_back(std::nullopt);
+  }
+  return {query.features->prepared, std::move(matches), std::move(guesses), config_.verify, config_.parallel_candidates && !from_map};
+}
+
+const KeyframeRecord& LoopDetector::place_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
+                                                   const Eigen::Isometry3d& T_map_query) {
+  KeyframeRecord record;
+  record.key = input.key;
+  record.utime = input.utime;
+  record.T_odom_sensor = input.T_odom_sensor;
+  record.residual = input.residual;
+  record.travelled = travelled_;
+  record.features = std::move(features);
+  if (record.features && config_.correction.graph.use_plane_constraints) add_ground_plane(record, T_map_query);
+  return keyframes_.add(std::move(record));
+}
+
+void LoopDetector::add_ground_plane(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_query) {
   // Ren 2019, Sec. 3.4.2: the roadway plane as a landmark. The ground is the largest near-horizontal planar segment
   // below the sensor; keyframes in the same ground cell (plane_cell_size) observe the same plane node.
   const Cluster* ground = nullptr;
-  for (const Cluster& c : features.prepared.segmentation.clusters) {
+  for (const Cluster& c : keyframe.features->prepared.segmentation.clusters) {
     if (!c.planar || std::abs(c.plane.z()) < 0.97f || c.centroid.z() > -0.5f) continue;
     if (!ground || c.num_points > ground->num_points) ground = &c;
   }
   if (!ground) return;
   PlaneObservation obs;
-  obs.index = static_cast<int>(id);
+  obs.index = pose_index(keyframe.key);
   const auto cx = static_cast<std::int64_t>(std::floor(T_map_query.translation().x() / config_.plane_cell_size));
   const auto cy = static_cast<std::int64_t>(std::floor(T_map_query.translation().y() / config_.plane_cell_size));
   obs.plane_id = static_cast<int>(((cx * 73856093) ^ (cy * 19349663)) & 0x7fffffff);
@@ -84,172 +132,116 @@ void LoopDetector::add_ground_plane(std::int64_t id, const KeyframeFeatures& fea
   corrector_.add_plane_observation(obs);
 }
 
-LoopDecision LoopDetector::make_decision(const KeyframeInput& q, const StoredKeyframe& m, double gate_distance, double radius) {
+LoopDecision LoopDetector::make_decision(const KeyframeRecord& query, const RankedCandidate& candidate, double radius) {
   LoopDecision d;
   d.event_id = next_event_id_++;
-  d.query_id = q.id;
-  d.query_utime = q.utime;
-  d.match_id = m.input.id;
-  d.match_utime = m.input.utime;
-  d.gate_distance = gate_distance;
+  d.query = query.key;
+  d.query_utime = query.utime;
+  d.match = candidate.match->key;
+  d.match_utime = candidate.match->utime;
+  d.gate_distance = candidate.gate_distance;
   d.gate_radius = radius;
+  d.descriptor_distance = candidate.descriptor_distance;
   return d;
 }
 
+void LoopDetector::report(LoopDecision decision, DetectorOutput& out, const DecisionCallback& on_decided) {
+  out.decisions.push_back(std::move(decision));
+  if (on_decided) on_decided(out.decisions.back());
+}
+
+void LoopDetector::report_descriptor_rejection(const KeyframeRecord& query, const RankedCandidate& best, double radius, DetectorOutput& out,
+                                               const DecisionCallback& on_decided) {
+  // The best gated candidate's descriptor score is reported even when it is not verified (PR curves need it).
+  LoopDecision d = make_decision(query, best, radius);
+  d.status = LoopStatus::kRejected;
+  d.stage = "descriptor";
+  d.ms_descriptor = query.features->ms_descriptor;
+  d.reason = "descriptor distance above threshold";
+  ++loops_rejected_;
+  report(std::move(d), out, on_decided);
+}
+
+bool LoopDetector::guided(const KeyframeKey& query) const {
+  return last_accepted_ && keyframes_between(*last_accepted_, query) <= config_.guided_window;
+}
+
+std::optional<CorrectionOutput> LoopDetector::close_loop(const KeyframeRecord& query, const RankedCandidate& match, const VerifyResult& verification,
+                                                         LoopDecision decision, DetectorOutput& out, const DecisionCallback& on_decided) {
+  const LoopConstraint loop = to_loop_constraint(verification, pose_index(query.key), pose_index(match.match->key));
+  const std::optional<std::string> refused = corrector_.check_loop(loop);
+  if (refused) decision.reason = "accepted, but the correction refused the loop: " + *refused;
+  const std::int64_t event_id = decision.event_id;
+  report(std::move(decision), out, on_decided);  // before the correction: the event need not wait for the pose graph
+  ++loops_accepted_;
+  last_accepted_ = query.key;
+  travelled_at_last_loop_ = travelled_;
+  if (refused) return std::nullopt;
+  // Vlaminck 2019 Sec. 4.4 / Ren 2019 Sec. 3.4.3: the heuristic, then the pose graph.
+  Stopwatch sw;
+  const CorrectionResult result = corrector_.add_loop(loop);
+  if (!result.ok) return std::nullopt;  // check_loop() said it would take it; nothing else refuses
+  return correction_output(result, event_id, sw);
+}
+
+CorrectionOutput LoopDetector::correction_output(const CorrectionResult& result, std::int64_t loop_event_id, const Stopwatch& sw) {
+  CorrectionOutput c;
+  c.revision = ++revision_;
+  c.loop_event_id = loop_event_id;
+  c.method = to_string(result.method);
+  c.T_map_odom = corrector_.T_map_odom();
+  const std::vector<Eigen::Isometry3d>& corrected = corrector_.corrected_poses();
+  c.keys.reserve(keyframes_.size());
+  c.utimes.reserve(keyframes_.size());
+  c.T_map_sensor.reserve(keyframes_.size());
+  for (const KeyframeRecord& k : keyframes_.records()) {
+    c.keys.push_back(k.key);
+    c.utimes.push_back(k.utime);
+    c.T_map_sensor.push_back(corrected[static_cast<std::size_t>(pose_index(k.key))]);
+  }
+  c.ms = sw.ms();
+  return c;
+}
+
 DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
-                                          const std::function<void(const LoopDecision&)>& on_decided) {
-  DetectorOutput out;
-  if (!keyframes_.empty()) travelled_ += (keyframes_.back().input.T_odom_sensor.inverse() * input.T_odom_sensor).translation().norm();
+                                          const DecisionCallback& on_decided) {
+  // Vlaminck 2019 Sec. 4: the keyframe enters the map where the corrected odometry puts it.
+  if (!keyframes_.empty()) travelled_ += (keyframes_.newest().T_odom_sensor.inverse() * input.T_odom_sensor).translation().norm();
   if (features && !features->ok) features.reset();
-
-  // Current best estimate of where this keyframe is: the odometry pose in the corrected map frame.
-  corrector_.add_keyframe(input.T_odom_sensor, input.residual);
+  pose_index_[input.key] = corrector_.add_keyframe(input.T_odom_sensor, input.residual);
   const Eigen::Isometry3d T_map_query = corrector_.T_map_odom() * input.T_odom_sensor;
+  const KeyframeRecord& query = place_keyframe(input, std::move(features), T_map_query);
 
-  if (features && config_.correction.graph.use_plane_constraints) add_ground_plane(input.id, *features, T_map_query);
-  StoredKeyframe stored{input, features, travelled_};
-  if (features) {
-    stored_bytes_ += features->prepared.bytes() + static_cast<std::size_t>(features->descriptor.size()) * sizeof(float);
-  }
-  stored_bytes_ += sizeof(StoredKeyframe);
-  keyframes_.push_back(stored);
-  const GateEntry query{input.id, T_map_query.translation(), travelled_};
-
-  if (features) {
-    // Vlaminck 2019 Sec. 4: candidates within 10% of the distance travelled since the last loop.
+  DetectorOutput out;
+  if (query.features) {
+    // Sec. 4 and 4.1: keyframes within the gate radius (10 % of the travel since the last loop), by M2DP distance.
     const double radius = gate_.radius(travelled_ - travelled_at_last_loop_);
-    struct Ranked {
-      const StoredKeyframe* kf;
-      double gate_distance;
-      double descriptor_distance;
-    };
-    std::vector<Ranked> ranked;
-    for (const GateCandidate& c : gate_.candidates(query, radius)) {
-      const StoredKeyframe& m = keyframes_[static_cast<std::size_t>(c.id)];
-      if (!m.features) continue;
-      ranked.push_back({&m, c.distance, descriptor_distance(features->descriptor, m.features->descriptor)});
-    }
-    std::sort(ranked.begin(), ranked.end(), [](const Ranked& a, const Ranked& b) {
-      return a.descriptor_distance < b.descriptor_distance || (a.descriptor_distance == b.descriptor_distance && a.kf->input.id < b.kf->input.id);
-    });
-
-    // Candidates to verify: under the descriptor threshold, best first, at most max_candidates_per_keyframe.
-    std::size_t num_verify = 0;
-    while (num_verify < ranked.size() && static_cast<int>(num_verify) < config_.max_candidates_per_keyframe &&
-           ranked[num_verify].descriptor_distance <= config_.max_descriptor_distance)
-      ++num_verify;
-    if (num_verify == 0 && !ranked.empty()) {
-      // Report the best gated candidate's descriptor score even when it is not verified (PR curves need it).
-      const Ranked& r = ranked.front();
-      LoopDecision d = make_decision(input, *r.kf, r.gate_distance, radius);
-      d.status = LoopStatus::kRejected;
-      d.stage = "descriptor";
-      d.descriptor_distance = r.descriptor_distance;
-      d.ms_descriptor = features->ms_descriptor;
-      d.reason = "descriptor distance above threshold";
+    const GateEntry here{query.key, T_map_query.translation(), travelled_};
+    const std::vector<RankedCandidate> ranked = rank_by_descriptor(gate_.candidates(here, radius), query.features->descriptor, keyframes_);
+    const std::size_t count = count_to_verify(ranked, config_.max_descriptor_distance, config_.max_candidates_per_keyframe);
+    if (count == 0 && !ranked.empty()) report_descriptor_rejection(query, ranked.front(), radius, out, on_decided);
+    // Sec. 4.2-4.3: verify best first; the first accepted candidate closes the loop and (Sec. 4.4) corrects the map.
+    CandidateVerifications verifications = start_verifications(query, ranked, count, T_map_query);
+    for (std::size_t i = 0; i < count; ++i) {
+      LoopDecision d = make_decision(query, ranked[i], radius);
+      const VerifyResult v = verifications.get(i);
+      apply_verification(v, query.features->ms_descriptor, d);
+      if (v.accepted) {
+        out.correction = close_loop(query, ranked[i], v, std::move(d), out, on_decided);
+        break;
+      }
+      report(std::move(d), out, on_decided);
       ++loops_rejected_;
-      out.decisions.push_back(d);
-      if (on_decided) on_decided(d);
-    }
-    const bool guided = input.id - last_accepted_id_ <= config_.guided_window;
-    // One candidate's verification; reads nothing that changes while it runs (the guess is computed up front).
-    auto verify_candidate = [this, guided, &features](const PreparedScan* match, Eigen::Isometry3d guess) {
-      VerifyResult v;
-      if (guided) {
-        // The corrected map is locally consistent right after a loop: its relative pose seeds GICP.
-        v = verify_from_guess(features->prepared, *match, guess, config_.verify);
-      }
-      if (!guided || !v.accepted) {
-        const double guided_ms = guided ? v.ms_total : 0.0;
-        v = verify(features->prepared, *match, config_.verify);
-        v.ms_total += guided_ms;
-      } else {
-        v.reason = "guided: GICP from the corrected map's relative pose (4PCS skipped)" + (v.reason.empty() ? std::string() : "; " + v.reason);
-      }
-      return v;
-    };
-    std::vector<Eigen::Isometry3d> guesses(num_verify, Eigen::Isometry3d::Identity());
-    for (std::size_t i = 0; i < num_verify; ++i)
-      if (guided) guesses[i] = corrector_.corrected_poses()[static_cast<std::size_t>(ranked[i].kf->input.id)].inverse() * T_map_query;
-    // Live mode verifies the other candidates concurrently (spare cores cut the latency tail); the decision is the
-    // same either way: the first accepted candidate in rank order wins and later ones are not reported.
-    std::vector<std::future<VerifyResult>> pending(num_verify);
-    if (config_.parallel_candidates && !guided)
-      for (std::size_t i = 1; i < num_verify; ++i)
-        pending[i] = std::async(std::launch::async, verify_candidate, &ranked[i].kf->features->prepared, guesses[i]);
-
-    for (std::size_t i = 0; i < num_verify; ++i) {
-      const Ranked& r = ranked[i];
-      LoopDecision d = make_decision(input, *r.kf, r.gate_distance, radius);
-      d.descriptor_distance = r.descriptor_distance;
-      d.ms_descriptor = features->ms_descriptor;
-      const VerifyResult v = pending[i].valid() ? pending[i].get() : verify_candidate(&r.kf->features->prepared, guesses[i]);
-      d.stage = v.accepted ? "accepted" : to_string(v.stage);
-      d.reason = v.reason;
-      d.lcp_fraction = v.lcp_fraction;
-      d.icp_residual = v.icp_residual;
-      d.icp_fitness = v.icp_fitness;
-      d.hungarian_consistency = v.hungarian_consistency;
-      d.degeneracy = v.degeneracy;
-      d.T_match_query = v.T_match_query;
-      d.ms_fourpcs = v.ms_fourpcs;
-      d.ms_gicp = v.ms_gicp;
-      d.ms_hungarian = v.ms_hungarian;
-      d.ms_total = v.ms_total + features->ms_descriptor;
-      d.status = v.accepted ? LoopStatus::kAccepted : LoopStatus::kRejected;
-      LoopConstraint loop;
-      loop.query_index = static_cast<int>(input.id);
-      loop.match_index = static_cast<int>(r.kf->input.id);
-      loop.T_match_query = v.T_match_query;
-      // verify() gives the GICP information in (rx, ry, rz, tx, ty, tz) order; the corrector takes (t, r).
-      loop.information.topLeftCorner<3, 3>() = v.information.bottomRightCorner<3, 3>();
-      loop.information.bottomRightCorner<3, 3>() = v.information.topLeftCorner<3, 3>();
-      loop.information.topRightCorner<3, 3>() = v.information.bottomLeftCorner<3, 3>();
-      loop.information.bottomLeftCorner<3, 3>() = v.information.topRightCorner<3, 3>();
-      const std::optional<std::string> refused = v.accepted ? corrector_.check_loop(loop) : std::nullopt;
-      if (refused) d.reason = "accepted, but the correction refused the loop: " + *refused;
-      out.decisions.push_back(d);
-      if (on_decided) on_decided(d);  // before the correction: the event need not wait for the pose graph
-      if (!v.accepted) {
-        ++loops_rejected_;
-        continue;
-      }
-      ++loops_accepted_;
-      last_accepted_id_ = input.id;
-      travelled_at_last_loop_ = travelled_;
-      if (refused) break;
-      Stopwatch sw;
-      const CorrectionResult cr = corrector_.add_loop(loop);
-      if (!cr.ok) break;  // check_loop() said it would take it; nothing else refuses
-      CorrectionOutput c;
-      c.revision = ++revision_;
-      c.loop_event_id = d.event_id;
-      c.method = to_string(cr.method);
-      c.T_map_sensor = corrector_.corrected_poses();
-      c.T_map_odom = corrector_.T_map_odom();
-      c.ids.reserve(keyframes_.size());
-      c.utimes.reserve(keyframes_.size());
-      for (const auto& k : keyframes_) {
-        c.ids.push_back(k.input.id);
-        c.utimes.push_back(k.input.utime);
-      }
-      c.ms = sw.ms();
-      out.correction = std::move(c);
-      break;
     }
   }
-  gate_.add({input.id, T_map_query.translation(), travelled_});
-  if (out.correction) {
-    std::vector<Eigen::Vector3d> positions;
-    for (const auto& T : out.correction->T_map_sensor) positions.push_back(T.translation());
-    gate_.update_positions(positions);
-  }
+  gate_.add({query.key, T_map_query.translation(), travelled_});
+  if (out.correction) gate_.update_positions([this](const KeyframeKey& k) { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(k))].translation(); });
   return out;
 }
 
 Eigen::Isometry3d LoopDetector::T_map_odom() const { return corrector_.T_map_odom(); }
 std::size_t LoopDetector::num_keyframes() const { return keyframes_.size(); }
-std::size_t LoopDetector::bytes_per_keyframe() const { return keyframes_.empty() ? 0 : stored_bytes_ / keyframes_.size(); }
+std::size_t LoopDetector::bytes_per_keyframe() const { return keyframes_.bytes_per_keyframe(); }
 std::string LoopDetector::descriptor_device() const { return m2dp_->device_name(); }
 
 }  // namespace loopd

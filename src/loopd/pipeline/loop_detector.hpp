@@ -5,15 +5,21 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/point_cloud.hpp"
 #include "loopd/core/pose.hpp"
+#include "loopd/core/stopwatch.hpp"
 #include "loopd/correction/loop_corrector.hpp"
 #include "loopd/descriptor/m2dp.hpp"
+#include "loopd/keyframe/keyframe_record.hpp"
+#include "loopd/pipeline/candidate_ranking.hpp"
 #include "loopd/pipeline/distance_gate.hpp"
+#include "loopd/pipeline/keyframe_database.hpp"
 #include "loopd/pipeline/keyframe_selector.hpp"
+#include "loopd/pipeline/loop_decision.hpp"
 #include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/verify/verify.hpp"
 
@@ -53,39 +59,12 @@ struct LoopDetectorConfig {
   std::optional<std::string> validate() const;
 };
 
-/// @brief Features of one keyframe, computed on a worker thread.
-struct KeyframeFeatures {
-  bool ok = false;
-  std::string error;
-  Eigen::VectorXf descriptor;
-  PreparedScan prepared;
-  double ms_descriptor = 0.0;
-  double ms_prepare = 0.0;
-  std::size_t input_points = 0;
-  std::size_t invalid_points = 0;  ///< NaN/Inf points removed
-};
-
 /// @brief A keyframe as handed to the sequential stage.
 struct KeyframeInput {
-  std::int64_t id = 0;      ///< consecutive from 0
+  KeyframeKey key;          ///< the engine numbers a session's keyframes from 0
   std::int64_t utime = 0;   ///< scan time [us]
   Eigen::Isometry3d T_odom_sensor = Eigen::Isometry3d::Identity();
   double residual = 0.0;    ///< odometry residual accumulated since the previous keyframe [m]
-};
-
-enum class LoopStatus { kCandidate = 0, kAccepted = 1, kRejected = 2 };
-
-/// @brief One decision, mirrored 1:1 by loop_event_t.
-struct LoopDecision {
-  std::int64_t event_id = 0;
-  std::int64_t query_id = 0, query_utime = 0, match_id = 0, match_utime = 0;
-  LoopStatus status = LoopStatus::kCandidate;
-  std::string stage;   ///< gate, descriptor, fourpcs, gicp, degeneracy, hungarian, accepted
-  std::string reason;
-  double gate_distance = 0.0, gate_radius = 0.0, descriptor_distance = -1.0;
-  double lcp_fraction = -1.0, icp_residual = -1.0, icp_fitness = -1.0, hungarian_consistency = -1.0, degeneracy = -1.0;
-  Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
-  double ms_descriptor = 0.0, ms_fourpcs = 0.0, ms_gicp = 0.0, ms_hungarian = 0.0, ms_total = 0.0;
 };
 
 /// @brief A corrected trajectory, mirrored by trajectory_t.
@@ -93,9 +72,9 @@ struct CorrectionOutput {
   std::int64_t revision = 0;
   std::int64_t loop_event_id = 0;
   std::string method;
-  std::vector<std::int64_t> ids;
-  std::vector<std::int64_t> utimes;
-  std::vector<Eigen::Isometry3d> T_map_sensor;
+  std::vector<KeyframeKey> keys;              ///< every keyframe, in the order they were added
+  std::vector<std::int64_t> utimes;           ///< [us] by keys
+  std::vector<Eigen::Isometry3d> T_map_sensor;  ///< corrected poses, by keys
   Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();
   double ms = 0.0;
 };
@@ -135,24 +114,37 @@ class LoopDetector {
   const LoopDetectorConfig& config() const { return config_; }
 
  private:
-  struct StoredKeyframe;
-  void add_ground_plane(std::int64_t id, const KeyframeFeatures& features, const Eigen::Isometry3d& T_map_query);
-  LoopDecision make_decision(const KeyframeInput& q, const StoredKeyframe& m, double gate_distance, double radius);
+  using DecisionCallback = std::function<void(const LoopDecision&)>;
+  const KeyframeRecord& place_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
+                                       const Eigen::Isometry3d& T_map_query);
+  void add_ground_plane(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_query);
+  LoopDecision make_decision(const KeyframeRecord& query, const RankedCandidate& candidate, double radius);
+  void report(LoopDecision decision, DetectorOutput& out, const DecisionCallback& on_decided);
+  void report_descriptor_rejection(const KeyframeRecord& query, const RankedCandidate& best, double radius, DetectorOutput& out,
+                                   const DecisionCallback& on_decided);
+  class CandidateVerifications;
+  CandidateVerifications start_verifications(const KeyframeRecord& query, const std::vector<RankedCandidate>& ranked, std::size_t count,
+                                             const Eigen::Isometry3d& T_map_query) const;
+  std::optional<CorrectionOutput> close_loop(const KeyframeRecord& query, const RankedCandidate& match, const VerifyResult& verification,
+                                             LoopDecision decision, DetectorOutput& out, const DecisionCallback& on_decided);
+  CorrectionOutput correction_output(const CorrectionResult& result, std::int64_t loop_event_id, const Stopwatch& sw);
+  PoseIndex pose_index(const KeyframeKey& key) const { return pose_index_.at(key); }
+  bool guided(const KeyframeKey& query) const;
 
   LoopDetectorConfig config_;
   std::optional<LidarModel> model_;
   std::unique_ptr<M2dp> m2dp_;
   DistanceGate gate_;
   LoopCorrector corrector_;
-  std::vector<StoredKeyframe> keyframes_;
-  std::size_t stored_bytes_ = 0;
+  KeyframeDatabase keyframes_;
+  std::unordered_map<KeyframeKey, PoseIndex, KeyframeKeyHash> pose_index_;  ///< position in corrector_'s pose sequence
   double travelled_ = 0.0;
   double travelled_at_last_loop_ = 0.0;
   std::int64_t next_event_id_ = 0;
   std::int64_t revision_ = 0;
   std::int64_t loops_accepted_ = 0;
   std::int64_t loops_rejected_ = 0;
-  std::int64_t last_accepted_id_ = -1000000;
+  std::optional<KeyframeKey> last_accepted_;  ///< query of the newest accepted loop
 };
 
 }  // namespace loopd

@@ -1,5 +1,7 @@
 #include "loopd/verify/verify.hpp"
 
+#include "loopd/core/information.hpp"
+
 #include <sstream>
 
 #include "loopd/core/stopwatch.hpp"
@@ -51,7 +53,7 @@ void refine_and_check(const PreparedScan& query, const PreparedScan& match, cons
   r->icp_fitness = g.fitness;
   r->icp_iterations = g.iterations;
   r->icp_converged = g.converged;
-  r->information = g.H;
+  r->information = information_from_rotation_first(g.H);
   r->degeneracy = g.degeneracy;
   r->weakest_direction = g.weakest_direction;
   std::ostringstream why;

@@ -8,6 +8,7 @@
 
 #include "loopd/registration/four_pcs.hpp"
 #include "loopd/registration/gicp.hpp"
+#include "loopd/core/information.hpp"
 #include "loopd/keyframe/prepared_scan.hpp"
 
 namespace loopd {
@@ -65,8 +66,8 @@ struct VerifyResult {
   int icp_iterations = 0;
   bool icp_converged = false;
   int clusters_query = 0, clusters_match = 0, clusters_matched = 0;  ///< centroid check counts
-  /// GICP Hessian at T_match_query (order rx ry rz tx ty tz, right perturbation, see GicpResult::H): loop-edge information.
-  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  /// GICP Hessian at T_match_query as loop-edge information, in loopd's one order (core/information.hpp: t then r).
+  Information6d information = Information6d::Zero();
   double ms_fourpcs = 0, ms_gicp = 0, ms_hungarian = 0, ms_total = 0;  ///< [ms]
 };
 
@@ -79,5 +80,11 @@ VerifyResult verify(const PreparedScan& query, const PreparedScan& match, const 
 /// elsewhere), then the degeneracy and centroid checks. lcp_fraction stays -1.
 VerifyResult verify_from_guess(const PreparedScan& query, const PreparedScan& match, const Eigen::Isometry3d& init_T_match_query,
                                const VerifyConfig& config);
+
+/// @brief One loop candidate as the detector verifies it. With a guess (the corrected map's relative pose right after
+/// an accepted loop), GICP starts from it and 4PCS is skipped; without one, or when that guided check rejects, the
+/// full verify() decides (ms_total then counts both).
+VerifyResult verify_candidate(const PreparedScan& query, const PreparedScan& match, const std::optional<Eigen::Isometry3d>& guess_T_match_query,
+                              const VerifyConfig& config);
 
 }  // namespace loopd

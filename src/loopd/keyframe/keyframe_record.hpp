@@ -1,0 +1,42 @@
+#pragma once
+/// @file One keyframe as loopd keeps it: where odometry put it, and the features loop detection compares.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "loopd/keyframe/keyframe_key.hpp"
+#include "loopd/keyframe/prepared_scan.hpp"
+
+namespace loopd {
+
+/// @brief What a keyframe's scan yields: the place descriptor (Vlaminck 2019 Sec. 4.1) and the prepared scan for
+/// verification (Sec. 4.2-4.3). Computed once, on a worker thread, from the scan alone.
+struct KeyframeFeatures {
+  bool ok = false;
+  std::string error;                 ///< why the scan is unusable (ok = false)
+  Eigen::VectorXf descriptor;        ///< M2DP signature
+  PreparedScan prepared;             ///< voxel cloud, normals, segmentation
+  double ms_descriptor = 0.0;        ///< [ms]
+  double ms_prepare = 0.0;           ///< [ms]
+  std::size_t input_points = 0;      ///< points in the raw scan
+  std::size_t invalid_points = 0;    ///< NaN/Inf points removed
+
+  /// @brief Heap + object footprint [bytes] of the descriptor and the prepared scan.
+  std::size_t bytes() const { return prepared.bytes() + static_cast<std::size_t>(descriptor.size()) * sizeof(float); }
+};
+
+/// @brief A keyframe: its name, its odometry pose and its features (null when it was shed under load: the pose still
+/// belongs to the trajectory but the keyframe is neither a query nor a candidate).
+struct KeyframeRecord {
+  KeyframeKey key;
+  std::int64_t utime = 0;  ///< scan time [us]
+  Eigen::Isometry3d T_odom_sensor = Eigen::Isometry3d::Identity();
+  double residual = 0.0;   ///< odometry residual accumulated since the previous keyframe [m]
+  double travelled = 0.0;  ///< [m] odometry path length from the session's first keyframe
+  std::shared_ptr<const KeyframeFeatures> features;
+};
+
+}  // namespace loopd
