@@ -6,7 +6,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "loopd/correction/trajectory_io.hpp"
+#include "loopd/core/trajectory_io.hpp"
+#include "loopd/correction/loop_file.hpp"
 #include "loopd/correction/trajectory_tools.hpp"
 
 using namespace loopd;

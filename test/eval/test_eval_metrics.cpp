@@ -174,6 +174,7 @@ TEST_CASE("injected odometry drift is deterministic and grows with distance") {
 }
 
 #include "loopd/core/trajectory_io.hpp"
+#include "loopd/io/kitti_files.hpp"
 #include "support/data_dir.hpp"
 
 TEST_CASE("loop ground truth on the real KITTI poses matches the counts in the data README") {
@@ -182,12 +183,11 @@ TEST_CASE("loop ground truth on the real KITTI poses matches the counts in the d
   LOOPD_REQUIRE_DATA(poses05, "kitti/poses/05.txt");
   LOOPD_REQUIRE_DATA(calib, "kitti/calib/Tr_velo_to_cam_00-02.txt");
   auto count = [&calib](const std::string& path, bool lidar, bool planar) {
-    std::vector<Eigen::Isometry3d> cam;
-    std::string err;
-    REQUIRE(read_kitti_poses(path, &cam, &err));
-    Eigen::Isometry3d Tr;
-    REQUIRE(read_kitti_calib_tr(calib, &Tr, &err));
-    const auto poses = lidar ? kitti_camera_to_lidar(cam, Tr) : cam;
+    const TrajectoryFile cam = read_trajectory(path, TrajectoryFormat::kKitti);
+    REQUIRE(cam.ok);
+    const KittiCalibration Tr = read_kitti_calib_tr(calib);
+    REQUIRE(Tr.ok);
+    const auto poses = lidar ? kitti_camera_to_lidar(cam.poses, Tr.T_cam_velo) : cam.poses;
     std::vector<Eigen::Vector3d> pos;
     for (const auto& T : poses) pos.push_back(T.translation());
     LoopGroundTruthConfig cfg;

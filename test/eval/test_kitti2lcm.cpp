@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "loopd/core/trajectory_io.hpp"
+#include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "support/data_dir.hpp"
 
@@ -93,35 +94,44 @@ void write_synthetic_kitti(const fs::path& root) {
 TEST_CASE("KITTI readers: poses, times, calib and camera-to-lidar conversion") {
   const fs::path d = temp_dir("kitti_readers");
   write_synthetic_kitti(d);
-  std::vector<Eigen::Isometry3d> poses;
-  std::string err;
-  REQUIRE(read_kitti_poses((d / "poses/07.txt").string(), &poses, &err));
-  REQUIRE(poses.size() == 3);
-  CHECK(poses[2].isApprox(camera_pose(2), 1e-9));
-  Eigen::Isometry3d Tr;
-  REQUIRE(read_kitti_calib_tr((d / "sequences/07/calib.txt").string(), &Tr, &err));
+  const TrajectoryFile poses = read_trajectory((d / "poses/07.txt").string(), TrajectoryFormat::kKitti);
+  REQUIRE(poses.ok);
+  REQUIRE(poses.poses.size() == 3);
+  CHECK(poses.poses[2].isApprox(camera_pose(2), 1e-9));
+  const KittiCalibration calib = read_kitti_calib_tr((d / "sequences/07/calib.txt").string());
+  REQUIRE(calib.ok);
+  const Eigen::Isometry3d& Tr = calib.T_cam_velo;
   CHECK(Tr.isApprox(kitti_like_tr(), 1e-9));
-  const auto lidar = kitti_camera_to_lidar(poses, Tr);
+  const auto lidar = kitti_camera_to_lidar(poses.poses, Tr);
   // T_world_velo = Tr^-1 * P * Tr: the first pose is the identity and the car drives along lidar +x.
   CHECK(lidar[0].isApprox(Eigen::Isometry3d::Identity(), 1e-9));
   CHECK(lidar[1].translation().x() == Approx(0.9).margin(0.01));  // plus the lever arm of Tr under rotation
   CHECK(lidar[1].translation().y() == Approx(-0.1).margin(0.02));
-  std::vector<double> times;
-  REQUIRE(read_kitti_times((d / "sequences/07/times.txt").string(), &times, &err));
-  CHECK(times.size() == 3);
+  const KittiTimes times = read_kitti_times((d / "sequences/07/times.txt").string());
+  REQUIRE(times.ok);
+  CHECK(times.seconds.size() == 3);
+  const TrajectoryFile lidar_poses =
+      read_kitti_lidar_poses((d / "poses/07.txt").string(), (d / "sequences/07/calib.txt").string());
+  REQUIRE(lidar_poses.ok);
+  REQUIRE(lidar_poses.poses.size() == 3);
+  CHECK(lidar_poses.poses[1].isApprox(lidar[1], 1e-12));
 
   // Malformed files: the message names the file and the line.
   write_text(d / "bad_poses.txt", pose_line(camera_pose(0)) + "1 0 0 0 0 1 0 0 0 0 1\n");
-  CHECK_FALSE(read_kitti_poses((d / "bad_poses.txt").string(), &poses, &err));
-  CHECK(err.find("bad_poses.txt:2:") != std::string::npos);
-  CHECK(err.find("got 11") != std::string::npos);
+  const TrajectoryFile bad_poses = read_trajectory((d / "bad_poses.txt").string(), TrajectoryFormat::kKitti);
+  CHECK_FALSE(bad_poses.ok);
+  CHECK(bad_poses.error.find("bad_poses.txt:2:") != std::string::npos);
+  CHECK(bad_poses.error.find("got 11") != std::string::npos);
   write_text(d / "bad_times.txt", "0.0\n0.1\nabc\n");
-  CHECK_FALSE(read_kitti_times((d / "bad_times.txt").string(), &times, &err));
-  CHECK(err.find("bad_times.txt:3:") != std::string::npos);
+  const KittiTimes bad_times = read_kitti_times((d / "bad_times.txt").string());
+  CHECK_FALSE(bad_times.ok);
+  CHECK(bad_times.error.find("bad_times.txt:3:") != std::string::npos);
   write_text(d / "no_tr.txt", "P0: 1 2 3\n");
-  CHECK_FALSE(read_kitti_calib_tr((d / "no_tr.txt").string(), &Tr, &err));
-  CHECK(err.find("Tr:") != std::string::npos);
-  CHECK_FALSE(read_kitti_poses((d / "missing.txt").string(), &poses, &err));
+  const KittiCalibration no_tr = read_kitti_calib_tr((d / "no_tr.txt").string());
+  CHECK_FALSE(no_tr.ok);
+  CHECK(no_tr.error.find("Tr:") != std::string::npos);
+  CHECK_FALSE(read_trajectory((d / "missing.txt").string(), TrajectoryFormat::kKitti).ok);
+  CHECK_FALSE(read_kitti_lidar_poses((d / "missing.txt").string(), (d / "sequences/07/calib.txt").string()).ok);
   fs::remove_all(d);
 }
 
@@ -227,7 +237,7 @@ TEST_CASE("kitti2lcm round-trips a synthetic KITTI-format folder") {
     CHECK(std::system((base + " --poses " + (d / "bad.txt").string() + " > /dev/null 2> " + err_file).c_str()) != 0);
     std::ifstream e2(err_file);
     msg.assign((std::istreambuf_iterator<char>(e2)), {});
-    CHECK(msg.find("bad.txt:2: not a number: 'x'") != std::string::npos);
+    CHECK(msg.find("bad.txt:2: 'x' is not a number") != std::string::npos);
     fs::remove(d / "sequences/07/calib.txt");
     CHECK(run(base + " --poses " + poses) != 0);
   }

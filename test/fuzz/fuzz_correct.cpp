@@ -5,7 +5,8 @@
 
 #include "fuzz_support.hpp"
 #include "loopd/correction/loop_corrector.hpp"
-#include "loopd/correction/trajectory_io.hpp"
+#include "loopd/core/trajectory_io.hpp"
+#include "loopd/correction/loop_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace loopd;
@@ -23,20 +24,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   std::istringstream odometry_in(parts[0]);
   const TrajectoryFile odometry = parse_trajectory(odometry_in, format, "odometry.txt");
-  if (!odometry.error.empty()) {
+  if (!odometry.ok) {
     fuzz::check_error_names(odometry.error, "odometry.txt");
     return 0;
   }
   const int n = static_cast<int>(odometry.poses.size());
   std::istringstream loops_in(parts[1]);
   const LoopFile loops = parse_loops(loops_in, "loops.txt", n);
-  if (!loops.error.empty()) {
+  if (!loops.ok) {
     fuzz::check_error_names(loops.error, "loops.txt");
     return 0;
   }
   std::istringstream residuals_in(parts[2]);
   const ResidualFile residuals = parse_residuals(residuals_in, "residuals.txt");
-  if (!residuals.error.empty()) {
+  if (!residuals.ok) {
     fuzz::check_error_names(residuals.error, "residuals.txt");
     return 0;
   }

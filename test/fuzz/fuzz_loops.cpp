@@ -2,7 +2,7 @@
 #include <sstream>
 
 #include "fuzz_support.hpp"
-#include "loopd/correction/trajectory_io.hpp"
+#include "loopd/correction/loop_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace loopd;
@@ -10,7 +10,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (int num_poses : {-1, 50}) {
     std::istringstream in(text);
     const LoopFile f = parse_loops(in, "loops.txt", num_poses);
-    if (!f.error.empty()) {
+    fuzz::check(f.ok == f.error.empty(), "ok exactly when there is no error");
+    if (!f.ok) {
       fuzz::check_error_names(f.error, "loops.txt");
       continue;
     }
@@ -22,7 +23,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   std::istringstream in(text);
   const ResidualFile r = parse_residuals(in, "residuals.txt");
-  if (!r.error.empty()) fuzz::check_error_names(r.error, "residuals.txt");
+  fuzz::check(r.ok == r.error.empty(), "ok exactly when there is no error");
+  if (!r.ok) fuzz::check_error_names(r.error, "residuals.txt");
   for (double v : r.residuals) fuzz::check(std::isfinite(v) && v >= 0.0, "residuals are finite and >= 0");
   return 0;
 }

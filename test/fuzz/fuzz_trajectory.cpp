@@ -11,7 +11,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (TrajectoryFormat format : {TrajectoryFormat::kKitti, TrajectoryFormat::kTum}) {
     std::istringstream in(text);
     const TrajectoryFile f = parse_trajectory(in, format, "fuzz.txt");
-    if (!f.error.empty()) {
+    fuzz::check(f.ok == f.error.empty(), "ok exactly when there is no error");
+    if (!f.ok) {
       fuzz::check_error_names(f.error, "fuzz.txt");
       continue;
     }

@@ -7,7 +7,7 @@
 
 #include "loopd/core/cloud_ops.hpp"
 #include "loopd/core/pose.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/registration/scan_registration.hpp"
 #include "support/data_dir.hpp"
@@ -36,9 +36,9 @@ TEST_CASE("KITTI 00 pairs are aligned within 5 deg and 0.5 m + 20% of the distan
   LOOPD_REQUIRE_DATA(poses_file, "kitti/poses/00.txt");
   LOOPD_REQUIRE_DATA(calib_file, "kitti/calib/Tr_velo_to_cam_00-02.txt");
   LOOPD_REQUIRE_DATA(first_scan, "kitti/seq00/000000.bin");
-  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo
-  std::string pose_err;
-  REQUIRE(read_kitti_lidar_poses(poses_file, calib_file, &velo_poses, &pose_err));
+  const TrajectoryFile kitti = read_kitti_lidar_poses(poses_file, calib_file);
+  REQUIRE(kitti.ok);
+  const std::vector<Eigen::Isometry3d>& velo_poses = kitti.poses;  // T_world_velo
   // The scans are not motion-compensated: scan matching underestimates the motion by ~17% (data README), hence the
   // distance-proportional translation tolerance (measured: 0.25 m at 0.86 m, 0.7 m at 4.3 m, 1.2 m at 12.9 m).
   const ScanRegistrationConfig cfg;
@@ -65,9 +65,9 @@ TEST_CASE("KITTI 95 -> 94 is found from any heading (query turned about its z ax
   LOOPD_REQUIRE_DATA(poses_file, "kitti/poses/00.txt");
   LOOPD_REQUIRE_DATA(calib_file, "kitti/calib/Tr_velo_to_cam_00-02.txt");
   LOOPD_REQUIRE_DATA(scan, "kitti/seq00/000095.bin");
-  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo
-  std::string pose_err;
-  REQUIRE(read_kitti_lidar_poses(poses_file, calib_file, &velo_poses, &pose_err));
+  const TrajectoryFile kitti = read_kitti_lidar_poses(poses_file, calib_file);
+  REQUIRE(kitti.ok);
+  const std::vector<Eigen::Isometry3d>& velo_poses = kitti.poses;  // T_world_velo
   const Eigen::Isometry3d Tq = velo_poses.at(95), Tm = velo_poses.at(94);
   const ScanRegistrationConfig cfg;
   const RegistrationInput match = prepare_registration_input(kitti_scan(94), nullptr, cfg);

@@ -9,7 +9,7 @@
 
 #include "loopd/core/cloud_ops.hpp"
 #include "loopd/core/pose.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/registration/gicp.hpp"
 #include "support/data_dir.hpp"
@@ -169,9 +169,9 @@ TEST_CASE("GICP rejects degenerate input with a reason and never crashes") {
 TEST_CASE("GICP aligns consecutive real KITTI scans to the ground truth (seq 00)") {
   LOOPD_REQUIRE_DATA(poses_file, "kitti/poses/00.txt");
   LOOPD_REQUIRE_DATA(calib_file, "kitti/calib/Tr_velo_to_cam_00-02.txt");
-  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo
-  std::string pose_err;
-  REQUIRE(read_kitti_lidar_poses(poses_file, calib_file, &velo_poses, &pose_err));
+  const TrajectoryFile kitti = read_kitti_lidar_poses(poses_file, calib_file);
+  REQUIRE(kitti.ok);
+  const std::vector<Eigen::Isometry3d>& velo_poses = kitti.poses;  // T_world_velo
   for (const auto& pair : {std::pair<int, int>{94, 95}, std::pair<int, int>{198, 199}}) {
     char na[64], nb[64];
     std::snprintf(na, sizeof na, "kitti/seq00/%06d.bin", pair.first);

@@ -12,7 +12,7 @@
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/pose.hpp"
 #include "loopd/core/stopwatch.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
@@ -266,9 +266,9 @@ TEST_CASE("real KITTI seq 00: same place accepted within 0.2 m / 1 deg of ground
   LOOPD_REQUIRE_DATA(f95, "kitti/seq00/000095.bin");
   LOOPD_REQUIRE_DATA(f198, "kitti/seq00/000198.bin");
   LOOPD_REQUIRE_DATA(f199, "kitti/seq00/000199.bin");
-  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo
-  std::string pose_err;
-  REQUIRE(read_kitti_lidar_poses(poses_file, calib_file, &velo_poses, &pose_err));
+  const TrajectoryFile kitti = read_kitti_lidar_poses(poses_file, calib_file);
+  REQUIRE(kitti.ok);
+  const std::vector<Eigen::Isometry3d>& velo_poses = kitti.poses;  // T_world_velo
   const PreparedScan s0 = prepare_kitti(f0), s94 = prepare_kitti(f94), s95 = prepare_kitti(f95), s198 = prepare_kitti(f198), s199 = prepare_kitti(f199);
   CHECK(s94.bytes() <= 125 * 1024);
   // Same place (consecutive frames; the README checks these two against the ground truth to mm).

@@ -11,6 +11,7 @@
 #include "loopd/eval/odometry_drift.hpp"
 #include "loopd/core/trajectory_io.hpp"
 #include "loopd/io/cloud_file.hpp"
+#include "loopd/io/kitti_files.hpp"
 #include "message_convert.hpp"
 #include "tool_output.hpp"
 
@@ -111,18 +112,21 @@ int main(int argc, char** argv) {
   const std::string velodyne_dir = fs::is_directory(sequence + "/velodyne", fs_error) ? sequence + "/velodyne" : sequence;
   if (calib_path.empty()) calib_path = sequence + "/calib.txt";
   std::string error;
-  Eigen::Isometry3d T_cam_velo;
   if (!fs::exists(calib_path, fs_error))
     return fail("calibration file " + calib_path + " not found (give it with --calib)");
-  if (!read_kitti_calib_tr(calib_path, &T_cam_velo, &error)) return fail(error);
-  std::vector<Eigen::Isometry3d> cam_poses;
-  if (!read_kitti_poses(poses_path, &cam_poses, &error)) return fail(error);
-  const std::vector<Eigen::Isometry3d> gt = kitti_camera_to_lidar(cam_poses, T_cam_velo);
+  const KittiCalibration calib = read_kitti_calib_tr(calib_path);
+  if (!calib.ok) return fail(calib.error);
+  const Eigen::Isometry3d& T_cam_velo = calib.T_cam_velo;
+  const TrajectoryFile cam_poses = read_trajectory(poses_path, TrajectoryFormat::kKitti);
+  if (!cam_poses.ok) return fail(cam_poses.error);
+  const std::vector<Eigen::Isometry3d> gt = kitti_camera_to_lidar(cam_poses.poses, T_cam_velo);
 
   std::vector<double> times;
   if (times_path.empty() && fs::exists(sequence + "/times.txt", fs_error)) times_path = sequence + "/times.txt";
   if (!times_path.empty()) {
-    if (!read_kitti_times(times_path, &times, &error)) return fail(error);
+    KittiTimes read = read_kitti_times(times_path);
+    if (!read.ok) return fail(read.error);
+    times = std::move(read.seconds);
     if (times.size() < gt.size())
       return fail(times_path + " has " + std::to_string(times.size()) + " times but " + poses_path + " has " +
                   std::to_string(gt.size()) + " poses");
@@ -138,12 +142,12 @@ int main(int argc, char** argv) {
   std::vector<Eigen::Isometry3d> odom;
   std::vector<double> residuals;
   if (!odometry_path.empty()) {
-    std::vector<Eigen::Isometry3d> cam_odom;
-    if (!read_kitti_poses(odometry_path, &cam_odom, &error)) return fail(error);
-    if (cam_odom.size() < n)
-      return fail(odometry_path + " has " + std::to_string(cam_odom.size()) + " poses, fewer than the " +
+    const TrajectoryFile cam_odom = read_trajectory(odometry_path, TrajectoryFormat::kKitti);
+    if (!cam_odom.ok) return fail(cam_odom.error);
+    if (cam_odom.poses.size() < n)
+      return fail(odometry_path + " has " + std::to_string(cam_odom.poses.size()) + " poses, fewer than the " +
                   std::to_string(n) + " frames converted");
-    odom = kitti_camera_to_lidar(cam_odom, T_cam_velo);
+    odom = kitti_camera_to_lidar(cam_odom.poses, T_cam_velo);
     residuals.assign(odom.size(), 0.0);
   } else {
     const std::vector<Eigen::Isometry3d> head(gt.begin(), gt.begin() + static_cast<long>(n));

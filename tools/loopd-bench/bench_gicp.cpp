@@ -16,7 +16,7 @@
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/pose.hpp"
 #include "loopd/core/stopwatch.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/registration/gicp.hpp"
 #include "loopd/sim/lidar_sim.hpp"
@@ -119,10 +119,9 @@ int run_bench_gicp(int argc, char** argv) {
     prog.update(i + 1);
   }
   prog.finish();
-  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo of KITTI 00; empty without the data folder
-  std::string pose_err;
-  if (!read_kitti_lidar_poses(kitti_dir + "/poses/00.txt", kitti_dir + "/calib/Tr_velo_to_cam_00-02.txt", &velo_poses, &pose_err))
-    velo_poses.clear();
+  // T_world_velo of KITTI 00; empty without the data folder
+  const std::vector<Eigen::Isometry3d> velo_poses =
+      read_kitti_lidar_poses(kitti_dir + "/poses/00.txt", kitti_dir + "/calib/Tr_velo_to_cam_00-02.txt").poses;
   for (const auto& fr : {std::pair<int, int>{94, 95}, std::pair<int, int>{198, 199}, std::pair<int, int>{0, 1}, std::pair<int, int>{3, 4}}) {
     char a[32], b[32];
     std::snprintf(a, sizeof a, "/seq00/%06d.bin", fr.first);

@@ -24,7 +24,7 @@
 #include "loopd/core/cloud_ops.hpp"
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/pose.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/registration/scan_registration.hpp"
 #include "loopd/sim/lidar_sim.hpp"
@@ -91,9 +91,9 @@ std::vector<Pair> kitti_pairs(const std::string& dir) {
   std::vector<Pair> pairs;
   const int ids[][2] = {{1, 0}, {3, 2}, {95, 94}, {199, 198}};
   const double yaws[] = {0, 90, 180};
-  std::vector<Eigen::Isometry3d> velo_poses;  // T_world_velo (data README)
-  std::string pose_err;
-  if (!read_kitti_lidar_poses(dir + "/poses/00.txt", dir + "/calib/Tr_velo_to_cam_00-02.txt", &velo_poses, &pose_err)) return pairs;
+  const TrajectoryFile kitti = read_kitti_lidar_poses(dir + "/poses/00.txt", dir + "/calib/Tr_velo_to_cam_00-02.txt");
+  if (!kitti.ok) return pairs;
+  const std::vector<Eigen::Isometry3d>& velo_poses = kitti.poses;  // T_world_velo (data README)
   int k = 0;
   for (const auto& id : ids) {
     if (static_cast<std::size_t>(std::max(id[0], id[1])) >= velo_poses.size()) continue;

@@ -6,7 +6,8 @@
 
 #include "loopd/core/stopwatch.hpp"
 #include "loopd/correction/loop_corrector.hpp"
-#include "loopd/correction/trajectory_io.hpp"
+#include "loopd/core/trajectory_io.hpp"
+#include "loopd/correction/loop_file.hpp"
 #include "loopd/correction/trajectory_tools.hpp"
 #include "tool_output.hpp"
 
@@ -45,14 +46,14 @@ int main(int argc, char** argv) {
   if (auto e = config.validate()) return fail(*e);
 
   const TrajectoryFile odometry = read_trajectory(odometry_path, *format);
-  if (!odometry.error.empty()) return fail(odometry.error);
+  if (!odometry.ok) return fail(odometry.error);
   const int n = static_cast<int>(odometry.poses.size());
   const LoopFile loops = read_loops(loops_path, n);
-  if (!loops.error.empty()) return fail(loops.error);
+  if (!loops.ok) return fail(loops.error);
   std::vector<double> residuals;
   if (!residuals_path.empty()) {
     const ResidualFile r = read_residuals(residuals_path);
-    if (!r.error.empty()) return fail(r.error);
+    if (!r.ok) return fail(r.error);
     if (static_cast<int>(r.residuals.size()) != n)
       return fail(residuals_path + ": " + std::to_string(r.residuals.size()) + " residuals for " + std::to_string(n) + " poses (need one per pose)");
     residuals = r.residuals;
@@ -60,7 +61,7 @@ int main(int argc, char** argv) {
   TrajectoryFile ground_truth;
   if (!ground_truth_path.empty()) {
     ground_truth = read_trajectory(ground_truth_path, *format);
-    if (!ground_truth.error.empty()) return fail(ground_truth.error);
+    if (!ground_truth.ok) return fail(ground_truth.error);
   }
 
   LoopCorrector corrector(config);

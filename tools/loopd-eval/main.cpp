@@ -23,13 +23,20 @@ bool export_trajectories(const std::string& dir, const EvalReport& rep, bool kit
   std::filesystem::create_directories(dir, ec);
   const std::string d = dir + "/";
   std::vector<Eigen::Isometry3d> gt_all;
-  if (kitti)
-    return write_kitti_trajectory(d + "ground_truth.kitti.txt", rep.gt_keyframes, error) &&
-           write_kitti_trajectory(d + "odometry.kitti.txt", rep.before_keyframes, error) &&
-           write_kitti_trajectory(d + "corrected.kitti.txt", rep.after_keyframes, error);
-  return write_tum_trajectory(d + "ground_truth.tum", rep.keyframe_utimes, rep.gt_keyframes, error) &&
-         write_tum_trajectory(d + "odometry.tum", rep.keyframe_utimes, rep.before_keyframes, error) &&
-         write_tum_trajectory(d + "corrected.tum", rep.keyframe_utimes, rep.after_keyframes, error);
+  const TrajectoryFormat format = kitti ? TrajectoryFormat::kKitti : TrajectoryFormat::kTum;
+  const std::string suffix = kitti ? ".kitti.txt" : ".tum";
+  std::vector<double> seconds;  // TUM stamps [s]
+  for (const std::int64_t utime : rep.keyframe_utimes) seconds.push_back(static_cast<double>(utime) * 1e-6);
+  for (const auto& [name, poses] : {std::pair{"ground_truth", &rep.gt_keyframes}, std::pair{"odometry", &rep.before_keyframes},
+                                    std::pair{"corrected", &rep.after_keyframes}}) {
+    const std::size_t n = std::min(poses->size(), kitti ? poses->size() : seconds.size());  // TUM: a line per stamp
+    const std::vector<Eigen::Isometry3d> head(poses->begin(), poses->begin() + static_cast<std::ptrdiff_t>(n));
+    if (auto e = write_trajectory(d + name + suffix, head, seconds, format)) {
+      *error = *e;
+      return false;
+    }
+  }
+  return true;
 }
 
 }  // namespace
