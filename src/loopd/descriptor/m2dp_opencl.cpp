@@ -10,6 +10,7 @@
 #include <climits>
 #include <cmath>
 #include <mutex>
+#include <utility>
 
 #include "../../../kernels/m2dp_shared.h"
 #include "loopd/descriptor/m2dp_internal.hpp"
@@ -24,6 +25,97 @@ struct Buffer {
   cl_mem mem = nullptr;
   std::size_t bytes = 0;
 };
+
+/// Outcome of a sequence of OpenCL calls: the first that failed (`what`) and its error code.
+struct ClStep {
+  const char* what = "";
+  cl_int err = CL_SUCCESS;
+  bool ok() const { return err == CL_SUCCESS; }
+};
+
+/// Launch shape of pass 3 (binning): with max_points only every stride-th point is binned.
+struct BinningLaunch {
+  int stride = 1;      ///< binning_stride(N, max_points)
+  int n_bin = 0;       ///< points binned
+  int n_pad = 0;       ///< n_bin rounded up to whole work-groups of M2DP_WG x M2DP_VEC points
+  int bin_chunks = 0;  ///< M2DP_CHUNK-point chunks of the binned points
+};
+
+BinningLaunch binning_launch(std::size_t num_points, int n, int max_points) {
+  BinningLaunch b;
+  b.stride = binning_stride(num_points, max_points);
+  b.n_bin = (n + b.stride - 1) / b.stride;
+  constexpr int kGroupPoints = M2DP_WG * M2DP_VEC;
+  b.n_pad = (b.n_bin + kGroupPoints - 1) / kGroupPoints * kGroupPoints;
+  b.bin_chunks = (b.n_bin + M2DP_CHUNK - 1) / M2DP_CHUNK;
+  return b;
+}
+
+/// Pass 1 on the host: the per-chunk moments summed in double; centroid (shifted coordinates) and covariance.
+FirstMoments combine_first_moments(const std::vector<float>& host_moments, std::size_t chunks) {
+  double count = 0;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d sum_sq = Eigen::Matrix3d::Zero();
+  for (std::size_t c = 0; c < chunks; ++c) {
+    const float* m = host_moments.data() + c * M2DP_MOMENT_STRIDE;
+    count += m[0];
+    sum += Eigen::Vector3d(m[1], m[2], m[3]);
+    sum_sq(0, 0) += m[4];
+    sum_sq(0, 1) += m[5];
+    sum_sq(0, 2) += m[6];
+    sum_sq(1, 1) += m[7];
+    sum_sq(1, 2) += m[8];
+    sum_sq(2, 2) += m[9];
+  }
+  sum_sq(1, 0) = sum_sq(0, 1);
+  sum_sq(2, 0) = sum_sq(0, 2);
+  sum_sq(2, 1) = sum_sq(1, 2);
+  FirstMoments first;
+  first.count = count;
+  first.centroid = sum / count;  // shifted coordinates
+  first.covariance = sum_sq / count - first.centroid * first.centroid.transpose();
+  return first;
+}
+
+/// Kernel input of pass 2: centroid, PCA axes and sign axes (rows), as floats.
+void pack_frame(const Eigen::Vector3d& centroid, const Eigen::Matrix3d& pca, const Eigen::Matrix3d& sign_axes, float (&frame)[M2DP_FRAME_FLOATS]) {
+  for (int i = 0; i < 3; ++i) frame[i] = static_cast<float>(centroid(i));
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      frame[3 + 3 * r + c] = static_cast<float>(pca(r, c));
+      frame[12 + 3 * r + c] = static_cast<float>(sign_axes(r, c));
+    }
+}
+
+/// Pass 2 on the host: the per-chunk extent and moments summed in double.
+SecondMoments combine_second_moments(const std::vector<float>& host_extent, std::size_t chunks) {
+  SecondMoments second;
+  for (std::size_t c = 0; c < chunks; ++c) {
+    const float* e = host_extent.data() + c * M2DP_EXTENT_STRIDE;
+    second.max_r2 = std::max(second.max_r2, static_cast<double>(e[0]));
+    if (!std::isfinite(e[0])) second.max_r2 = e[0];
+    second.third += Eigen::Vector3d(e[1], e[2], e[3]);
+    second.second(0, 0) += e[4];
+    second.second(0, 1) += e[5];
+    second.second(0, 2) += e[6];
+    second.second(1, 1) += e[7];
+    second.second(1, 2) += e[8];
+    second.second(2, 2) += e[9];
+    second.first += Eigen::Vector3d(e[10], e[11], e[12]);
+  }
+  second.second(1, 0) = second.second(0, 1);
+  second.second(2, 0) = second.second(0, 2);
+  second.second(2, 1) = second.second(1, 2);
+  return second;
+}
+
+/// A result that failed at an OpenCL call: no descriptor, the call and its error code in `error`.
+M2dpResult failed(M2dpResult result, const ClStep& step) {
+  result.ok = false;
+  result.error = std::string("OpenCL ") + step.what + ": " + opencl_error_string(step.err);
+  result.descriptor.resize(0);
+  return result;
+}
 
 }  // namespace
 
@@ -57,6 +149,13 @@ struct M2dpOpenCl::State {
     b.bytes = err == CL_SUCCESS ? alloc : 0;
     return err;
   }
+
+  // The steps of compute(), in order; each returns the first OpenCL call that failed, if any.
+  ClStep ensure_scan_buffers(int n, int num_chunks, std::size_t num_planes, std::size_t num_bins);
+  ClStep run_moments(const std::vector<Eigen::Vector3f>& points, int n, const Eigen::Vector3f& shift, std::size_t chunks);
+  ClStep run_extent(const float (&frame_floats)[M2DP_FRAME_FLOATS], int n, std::size_t chunks);
+  ClStep upload_planes(const std::vector<float>& plane_floats, const std::vector<float>& param_floats);
+  ClStep run_binning(const BinningLaunch& launch, std::size_t num_planes, std::size_t num_bins);
 };
 
 namespace {
@@ -129,6 +228,109 @@ M2dpOpenCl::M2dpOpenCl(const M2dpConfig& config) : config_(config), state_(std::
 
 M2dpOpenCl::~M2dpOpenCl() = default;
 
+ClStep M2dpOpenCl::State::ensure_scan_buffers(int n, int num_chunks, std::size_t num_planes, std::size_t num_bins) {
+  cl_int err = CL_SUCCESS;
+  if ((err = ensure(xyz, static_cast<std::size_t>(n) * 3 * sizeof(float), CL_MEM_READ_ONLY)) != CL_SUCCESS ||
+      (err = ensure(xs, static_cast<std::size_t>(n) * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
+      (err = ensure(ys, static_cast<std::size_t>(n) * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
+      (err = ensure(zs, static_cast<std::size_t>(n) * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
+      (err = ensure(moments, static_cast<std::size_t>(num_chunks) * M2DP_MOMENT_STRIDE * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
+      (err = ensure(extent, static_cast<std::size_t>(num_chunks) * M2DP_EXTENT_STRIDE * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
+      (err = ensure(partial, static_cast<std::size_t>(num_chunks) * num_planes * num_bins * sizeof(std::uint32_t), CL_MEM_READ_WRITE)) !=
+          CL_SUCCESS)
+    return {"buffer", err};
+  return {};
+}
+
+ClStep M2dpOpenCl::State::run_moments(const std::vector<Eigen::Vector3f>& points, int n, const Eigen::Vector3f& shift, std::size_t chunks) {
+  const std::size_t one = 1;
+  cl_int err = CL_SUCCESS;
+  if ((err = clEnqueueWriteBuffer(queue, xyz.mem, CL_FALSE, 0, static_cast<std::size_t>(n) * 3 * sizeof(float), points.data(), 0, nullptr,
+                                  nullptr)) != CL_SUCCESS)
+    return {"upload", err};
+  set_arg(k_moments, 0, xyz.mem);
+  set_arg(k_moments, 1, n);
+  set_arg(k_moments, 2, shift.x());
+  set_arg(k_moments, 3, shift.y());
+  set_arg(k_moments, 4, shift.z());
+  set_arg(k_moments, 5, xs.mem);
+  set_arg(k_moments, 6, ys.mem);
+  set_arg(k_moments, 7, zs.mem);
+  set_arg(k_moments, 8, moments.mem);
+  if ((err = clEnqueueNDRangeKernel(queue, k_moments, 1, nullptr, &chunks, &one, 0, nullptr, nullptr)) != CL_SUCCESS) return {"m2dp_moments", err};
+  host_moments.resize(chunks * M2DP_MOMENT_STRIDE);
+  if ((err = clEnqueueReadBuffer(queue, moments.mem, CL_TRUE, 0, host_moments.size() * sizeof(float), host_moments.data(), 0, nullptr, nullptr)) !=
+      CL_SUCCESS)
+    return {"read moments", err};
+  return {};
+}
+
+ClStep M2dpOpenCl::State::run_extent(const float (&frame_floats)[M2DP_FRAME_FLOATS], int n, std::size_t chunks) {
+  const std::size_t one = 1;
+  cl_int err = CL_SUCCESS;
+  if ((err = clEnqueueWriteBuffer(queue, frame.mem, CL_FALSE, 0, sizeof(frame_floats), frame_floats, 0, nullptr, nullptr)) != CL_SUCCESS)
+    return {"upload frame", err};
+  set_arg(k_extent, 0, xs.mem);
+  set_arg(k_extent, 1, ys.mem);
+  set_arg(k_extent, 2, zs.mem);
+  set_arg(k_extent, 3, n);
+  set_arg(k_extent, 4, frame.mem);
+  set_arg(k_extent, 5, extent.mem);
+  if ((err = clEnqueueNDRangeKernel(queue, k_extent, 1, nullptr, &chunks, &one, 0, nullptr, nullptr)) != CL_SUCCESS) return {"m2dp_extent", err};
+  host_extent.resize(chunks * M2DP_EXTENT_STRIDE);
+  if ((err = clEnqueueReadBuffer(queue, extent.mem, CL_TRUE, 0, host_extent.size() * sizeof(float), host_extent.data(), 0, nullptr, nullptr)) !=
+      CL_SUCCESS)
+    return {"read extent", err};
+  return {};
+}
+
+ClStep M2dpOpenCl::State::upload_planes(const std::vector<float>& plane_floats, const std::vector<float>& param_floats) {
+  cl_int err = CL_SUCCESS;
+  if ((err = clEnqueueWriteBuffer(queue, planes.mem, CL_FALSE, 0, plane_floats.size() * sizeof(float), plane_floats.data(), 0, nullptr, nullptr)) !=
+          CL_SUCCESS ||
+      (err = clEnqueueWriteBuffer(queue, params.mem, CL_FALSE, 0, param_floats.size() * sizeof(float), param_floats.data(), 0, nullptr, nullptr)) !=
+          CL_SUCCESS)
+    return {"upload planes", err};
+  return {};
+}
+
+ClStep M2dpOpenCl::State::run_binning(const BinningLaunch& launch, std::size_t num_planes, std::size_t num_bins) {
+  cl_int err = CL_SUCCESS;
+  if ((err = ensure(codes, num_planes * static_cast<std::size_t>(launch.n_pad), CL_MEM_READ_WRITE)) != CL_SUCCESS) return {"buffer", err};
+  set_arg(k_codes, 0, xs.mem);
+  set_arg(k_codes, 1, ys.mem);
+  set_arg(k_codes, 2, zs.mem);
+  set_arg(k_codes, 3, launch.n_bin);
+  set_arg(k_codes, 4, launch.stride);
+  set_arg(k_codes, 5, planes.mem);
+  set_arg(k_codes, 6, params.mem);
+  set_arg(k_codes, 7, codes.mem);
+  set_arg(k_codes, 8, launch.n_pad);
+  const std::size_t codes_global = static_cast<std::size_t>(launch.n_pad / M2DP_VEC), codes_local = M2DP_WG;
+  if ((err = clEnqueueNDRangeKernel(queue, k_codes, 1, nullptr, &codes_global, &codes_local, 0, nullptr, nullptr)) != CL_SUCCESS)
+    return {"m2dp_codes", err};
+  set_arg(k_count, 0, codes.mem);
+  set_arg(k_count, 1, launch.n_bin);
+  set_arg(k_count, 2, launch.n_pad);
+  set_arg(k_count, 3, partial.mem);
+  const std::size_t count_global[2] = {static_cast<std::size_t>(launch.bin_chunks), num_planes};
+  const std::size_t count_local[2] = {1, 1};
+  if ((err = clEnqueueNDRangeKernel(queue, k_count, 2, nullptr, count_global, count_local, 0, nullptr, nullptr)) != CL_SUCCESS)
+    return {"m2dp_count", err};
+  const int chunks_arg = launch.bin_chunks;
+  set_arg(k_reduce, 0, partial.mem);
+  set_arg(k_reduce, 1, chunks_arg);
+  set_arg(k_reduce, 2, signature.mem);
+  const std::size_t reduce_global = num_planes * num_bins;
+  if ((err = clEnqueueNDRangeKernel(queue, k_reduce, 1, nullptr, &reduce_global, nullptr, 0, nullptr, nullptr)) != CL_SUCCESS)
+    return {"m2dp_reduce", err};
+  host_signature.resize(num_planes * num_bins);
+  if ((err = clEnqueueReadBuffer(queue, signature.mem, CL_TRUE, 0, host_signature.size() * sizeof(std::uint32_t), host_signature.data(), 0,
+                                 nullptr, nullptr)) != CL_SUCCESS)
+    return {"read signature", err};
+  return {};
+}
+
 M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
   M2dpResult result;
   result.backend = Backend::kOpenCl;
@@ -143,71 +345,19 @@ M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
   }
   std::lock_guard<std::mutex> lock(state_->mutex);
   State& s = *state_;
-  auto fail = [&](const char* what, cl_int err) {
-    result.ok = false;
-    result.error = std::string("OpenCL ") + what + ": " + opencl_error_string(err);
-    result.descriptor.resize(0);
-    return result;
-  };
   const int n = static_cast<int>(points.size());
   const int num_chunks = (n + M2DP_CHUNK - 1) / M2DP_CHUNK;
   const std::size_t num_planes = static_cast<std::size_t>(config_.num_planes()), num_bins = static_cast<std::size_t>(config_.num_bins());
-  cl_int err = CL_SUCCESS;
-  if ((err = s.ensure(s.xyz, static_cast<std::size_t>(n) * 3 * sizeof(float), CL_MEM_READ_ONLY)) != CL_SUCCESS ||
-      (err = s.ensure(s.xs, static_cast<std::size_t>(n) * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
-      (err = s.ensure(s.ys, static_cast<std::size_t>(n) * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
-      (err = s.ensure(s.zs, static_cast<std::size_t>(n) * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
-      (err = s.ensure(s.moments, static_cast<std::size_t>(num_chunks) * M2DP_MOMENT_STRIDE * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
-      (err = s.ensure(s.extent, static_cast<std::size_t>(num_chunks) * M2DP_EXTENT_STRIDE * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
-      (err = s.ensure(s.partial, static_cast<std::size_t>(num_chunks) * num_planes * num_bins * sizeof(std::uint32_t), CL_MEM_READ_WRITE)) !=
-          CL_SUCCESS)
-    return fail("buffer", err);
+  if (const ClStep st = s.ensure_scan_buffers(n, num_chunks, num_planes, num_bins); !st.ok()) return failed(std::move(result), st);
 
   // Shift by the first point so that float sums in the kernel stay accurate far from the origin.
   Eigen::Vector3f shift = points.front();
   if (!shift.allFinite()) shift.setZero();
-  const std::size_t one = 1;
   const std::size_t chunks = static_cast<std::size_t>(num_chunks);
 
   // Pass 1: moments (reduction per chunk), combined in double on the host.
-  if ((err = clEnqueueWriteBuffer(s.queue, s.xyz.mem, CL_FALSE, 0, static_cast<std::size_t>(n) * 3 * sizeof(float), points.data(), 0, nullptr,
-                                  nullptr)) != CL_SUCCESS)
-    return fail("upload", err);
-  set_arg(s.k_moments, 0, s.xyz.mem);
-  set_arg(s.k_moments, 1, n);
-  set_arg(s.k_moments, 2, shift.x());
-  set_arg(s.k_moments, 3, shift.y());
-  set_arg(s.k_moments, 4, shift.z());
-  set_arg(s.k_moments, 5, s.xs.mem);
-  set_arg(s.k_moments, 6, s.ys.mem);
-  set_arg(s.k_moments, 7, s.zs.mem);
-  set_arg(s.k_moments, 8, s.moments.mem);
-  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_moments, 1, nullptr, &chunks, &one, 0, nullptr, nullptr)) != CL_SUCCESS) return fail("m2dp_moments", err);
-  s.host_moments.resize(chunks * M2DP_MOMENT_STRIDE);
-  if ((err = clEnqueueReadBuffer(s.queue, s.moments.mem, CL_TRUE, 0, s.host_moments.size() * sizeof(float), s.host_moments.data(), 0, nullptr,
-                                 nullptr)) != CL_SUCCESS)
-    return fail("read moments", err);
-  double count = 0;
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d sum_sq = Eigen::Matrix3d::Zero();
-  for (std::size_t c = 0; c < chunks; ++c) {
-    const float* m = s.host_moments.data() + c * M2DP_MOMENT_STRIDE;
-    count += m[0];
-    sum += Eigen::Vector3d(m[1], m[2], m[3]);
-    sum_sq(0, 0) += m[4];
-    sum_sq(0, 1) += m[5];
-    sum_sq(0, 2) += m[6];
-    sum_sq(1, 1) += m[7];
-    sum_sq(1, 2) += m[8];
-    sum_sq(2, 2) += m[9];
-  }
-  sum_sq(1, 0) = sum_sq(0, 1);
-  sum_sq(2, 0) = sum_sq(0, 2);
-  sum_sq(2, 1) = sum_sq(1, 2);
-  FirstMoments first;
-  first.count = count;
-  first.centroid = sum / count;  // shifted coordinates
-  first.covariance = sum_sq / count - first.centroid * first.centroid.transpose();
+  if (const ClStep st = s.run_moments(points, n, shift, chunks); !st.ok()) return failed(std::move(result), st);
+  const FirstMoments first = combine_first_moments(s.host_moments, chunks);
   if (std::string e = check_first(first); !e.empty()) {
     result.error = e;
     return result;
@@ -217,43 +367,9 @@ M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
 
   // Pass 2: extent, third moments along the sign axes, centred moments in the PCA axes.
   float frame[M2DP_FRAME_FLOATS];
-  for (int i = 0; i < 3; ++i) frame[i] = static_cast<float>(first.centroid(i));
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) {
-      frame[3 + 3 * r + c] = static_cast<float>(pca(r, c));
-      frame[12 + 3 * r + c] = static_cast<float>(sign_axes(r, c));
-    }
-  if ((err = clEnqueueWriteBuffer(s.queue, s.frame.mem, CL_FALSE, 0, sizeof(frame), frame, 0, nullptr, nullptr)) != CL_SUCCESS)
-    return fail("upload frame", err);
-  set_arg(s.k_extent, 0, s.xs.mem);
-  set_arg(s.k_extent, 1, s.ys.mem);
-  set_arg(s.k_extent, 2, s.zs.mem);
-  set_arg(s.k_extent, 3, n);
-  set_arg(s.k_extent, 4, s.frame.mem);
-  set_arg(s.k_extent, 5, s.extent.mem);
-  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_extent, 1, nullptr, &chunks, &one, 0, nullptr, nullptr)) != CL_SUCCESS) return fail("m2dp_extent", err);
-  s.host_extent.resize(chunks * M2DP_EXTENT_STRIDE);
-  if ((err = clEnqueueReadBuffer(s.queue, s.extent.mem, CL_TRUE, 0, s.host_extent.size() * sizeof(float), s.host_extent.data(), 0, nullptr,
-                                 nullptr)) != CL_SUCCESS)
-    return fail("read extent", err);
-  SecondMoments second;
-  for (std::size_t c = 0; c < chunks; ++c) {
-    const float* e = s.host_extent.data() + c * M2DP_EXTENT_STRIDE;
-    second.max_r2 = std::max(second.max_r2, static_cast<double>(e[0]));
-    if (!std::isfinite(e[0])) second.max_r2 = e[0];
-    second.third += Eigen::Vector3d(e[1], e[2], e[3]);
-    second.second(0, 0) += e[4];
-    second.second(0, 1) += e[5];
-    second.second(0, 2) += e[6];
-    second.second(1, 1) += e[7];
-    second.second(1, 2) += e[8];
-    second.second(2, 2) += e[9];
-    second.first += Eigen::Vector3d(e[10], e[11], e[12]);
-  }
-  second.second(1, 0) = second.second(0, 1);
-  second.second(2, 0) = second.second(0, 2);
-  second.second(2, 1) = second.second(1, 2);
-  const Frame f = finish_frame(first, pca, sign_axes, second, config_.frame);
+  pack_frame(first.centroid, pca, sign_axes, frame);
+  if (const ClStep st = s.run_extent(frame, n, chunks); !st.ok()) return failed(std::move(result), st);
+  const Frame f = finish_frame(first, pca, sign_axes, combine_second_moments(s.host_extent, chunks), config_.frame);
   if (!f.error.empty()) {
     result.error = f.error;
     return result;
@@ -266,50 +382,11 @@ M2dpResult M2dpOpenCl::compute(const std::vector<Eigen::Vector3f>& points) {
   // per-chunk histograms summed on the device.
   const std::vector<float> planes = plane_table(config_, f.axes, f.centroid);
   const std::vector<float> params = bin_params(config_, f.max_r2);
-  if ((err = clEnqueueWriteBuffer(s.queue, s.planes.mem, CL_FALSE, 0, planes.size() * sizeof(float), planes.data(), 0, nullptr, nullptr)) !=
-          CL_SUCCESS ||
-      (err = clEnqueueWriteBuffer(s.queue, s.params.mem, CL_FALSE, 0, params.size() * sizeof(float), params.data(), 0, nullptr, nullptr)) !=
-          CL_SUCCESS)
-    return fail("upload planes", err);
+  if (const ClStep st = s.upload_planes(planes, params); !st.ok()) return failed(std::move(result), st);
   // max_points: only every stride-th point is binned (the moment and extent passes above used all points).
-  const int stride = binning_stride(points.size(), config_.max_points);
-  const int n_bin = (n + stride - 1) / stride;
-  constexpr int kGroupPoints = M2DP_WG * M2DP_VEC;
-  const int n_pad = (n_bin + kGroupPoints - 1) / kGroupPoints * kGroupPoints;
-  const int bin_chunks = (n_bin + M2DP_CHUNK - 1) / M2DP_CHUNK;
-  result.num_points = n_bin;
-  if ((err = s.ensure(s.codes, num_planes * static_cast<std::size_t>(n_pad), CL_MEM_READ_WRITE)) != CL_SUCCESS) return fail("buffer", err);
-  set_arg(s.k_codes, 0, s.xs.mem);
-  set_arg(s.k_codes, 1, s.ys.mem);
-  set_arg(s.k_codes, 2, s.zs.mem);
-  set_arg(s.k_codes, 3, n_bin);
-  set_arg(s.k_codes, 4, stride);
-  set_arg(s.k_codes, 5, s.planes.mem);
-  set_arg(s.k_codes, 6, s.params.mem);
-  set_arg(s.k_codes, 7, s.codes.mem);
-  set_arg(s.k_codes, 8, n_pad);
-  const std::size_t codes_global = static_cast<std::size_t>(n_pad / M2DP_VEC), codes_local = M2DP_WG;
-  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_codes, 1, nullptr, &codes_global, &codes_local, 0, nullptr, nullptr)) != CL_SUCCESS)
-    return fail("m2dp_codes", err);
-  set_arg(s.k_count, 0, s.codes.mem);
-  set_arg(s.k_count, 1, n_bin);
-  set_arg(s.k_count, 2, n_pad);
-  set_arg(s.k_count, 3, s.partial.mem);
-  const std::size_t count_global[2] = {static_cast<std::size_t>(bin_chunks), num_planes};
-  const std::size_t count_local[2] = {1, 1};
-  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_count, 2, nullptr, count_global, count_local, 0, nullptr, nullptr)) != CL_SUCCESS)
-    return fail("m2dp_count", err);
-  const int chunks_arg = bin_chunks;
-  set_arg(s.k_reduce, 0, s.partial.mem);
-  set_arg(s.k_reduce, 1, chunks_arg);
-  set_arg(s.k_reduce, 2, s.signature.mem);
-  const std::size_t reduce_global = num_planes * num_bins;
-  if ((err = clEnqueueNDRangeKernel(s.queue, s.k_reduce, 1, nullptr, &reduce_global, nullptr, 0, nullptr, nullptr)) != CL_SUCCESS)
-    return fail("m2dp_reduce", err);
-  s.host_signature.resize(num_planes * num_bins);
-  if ((err = clEnqueueReadBuffer(s.queue, s.signature.mem, CL_TRUE, 0, s.host_signature.size() * sizeof(std::uint32_t), s.host_signature.data(),
-                                 0, nullptr, nullptr)) != CL_SUCCESS)
-    return fail("read signature", err);
+  const BinningLaunch launch = binning_launch(points.size(), n, config_.max_points);
+  result.num_points = launch.n_bin;
+  if (const ClStep st = s.run_binning(launch, num_planes, num_bins); !st.ok()) return failed(std::move(result), st);
 
   descriptor_from_signature(s.host_signature, config_, &result);
   return result;
