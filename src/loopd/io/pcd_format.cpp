@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -70,6 +71,42 @@ bool scalar_from_pcd(char type, int size, ScalarType* t) {
   return size == 1 || size == 2 || size == 4 || size == 8;
 }
 
+/// SIZE, TYPE and COUNT (one entry per FIELDS entry) into the fields: scalar type, byte offset, values per point.
+std::string resolve_fields(const std::vector<std::string>& sizes, const std::vector<std::string>& types, const std::vector<std::string>& counts,
+                           PcdHeader* h) {
+  const std::size_t n = h->fields.size();
+  if (sizes.size() != n) return "SIZE has " + std::to_string(sizes.size()) + " entries for " + std::to_string(n) + " FIELDS";
+  if (types.size() != n) return "TYPE has " + std::to_string(types.size()) + " entries for " + std::to_string(n) + " FIELDS";
+  if (!counts.empty() && counts.size() != n) return "COUNT has " + std::to_string(counts.size()) + " entries for " + std::to_string(n) + " FIELDS";
+  for (std::size_t i = 0; i < n; ++i) {
+    PcdField& f = h->fields[i];
+    std::uint64_t size = 0;
+    if (!parse_uint(sizes[i], 8, &size) || types[i].size() != 1 || !scalar_from_pcd(types[i][0], static_cast<int>(size), &f.scalar))
+      return "field '" + f.name + "': SIZE " + sizes[i] + " TYPE " + types[i] + " is not a PCD number type (I/U of 1, 2, 4, 8 bytes; F of 4, 8)";
+    f.size = static_cast<int>(size);
+    f.type = types[i][0];
+    if (!counts.empty() && (!parse_uint(counts[i], kMaxCount, &f.count) || f.count == 0))
+      return "field '" + f.name + "': COUNT '" + counts[i] + "' must be an integer in [1, " + std::to_string(kMaxCount) + "]";
+    f.offset = h->point_size;
+    h->point_size += static_cast<std::uint64_t>(f.size) * f.count;
+    h->values_per_point += f.count;
+  }
+  return {};
+}
+
+/// The point count: POINTS, else WIDTH * HEIGHT (HEIGHT 1 when absent); both given must agree.
+std::string resolve_point_count(PcdHeader* h) {
+  if (!h->has_points) {
+    if (!h->has_width) return "neither POINTS nor WIDTH is given";
+    const std::uint64_t height = h->has_height ? h->height : 1;
+    if (height != 0 && h->width > kMaxPoints / height) return "WIDTH * HEIGHT is too large";
+    h->points = h->width * height;
+  } else if (h->has_width && h->has_height && (h->height == 0 ? h->width != 0 || h->points != 0 : h->width > kMaxPoints / h->height || h->width * h->height != h->points)) {
+    return "POINTS " + std::to_string(h->points) + " is not WIDTH * HEIGHT (" + std::to_string(h->width) + " * " + std::to_string(h->height) + ")";
+  }
+  return {};
+}
+
 /// Parses the header lines up to and including DATA. Returns "" or the reason (with `*line_no` at the bad line).
 std::string parse_header(const std::string& bytes, PcdHeader* h, int* line_no) {
   std::size_t pos = 0;
@@ -123,31 +160,8 @@ std::string parse_header(const std::string& bytes, PcdHeader* h, int* line_no) {
   }
   if (h->data.empty()) return "no DATA line (not a PCD file, or a truncated header)";
   if (!has_fields) return "no FIELDS line";
-  const std::size_t n = h->fields.size();
-  if (sizes.size() != n) return "SIZE has " + std::to_string(sizes.size()) + " entries for " + std::to_string(n) + " FIELDS";
-  if (types.size() != n) return "TYPE has " + std::to_string(types.size()) + " entries for " + std::to_string(n) + " FIELDS";
-  if (!counts.empty() && counts.size() != n) return "COUNT has " + std::to_string(counts.size()) + " entries for " + std::to_string(n) + " FIELDS";
-  for (std::size_t i = 0; i < n; ++i) {
-    PcdField& f = h->fields[i];
-    std::uint64_t size = 0;
-    if (!parse_uint(sizes[i], 8, &size) || types[i].size() != 1 || !scalar_from_pcd(types[i][0], static_cast<int>(size), &f.scalar))
-      return "field '" + f.name + "': SIZE " + sizes[i] + " TYPE " + types[i] + " is not a PCD number type (I/U of 1, 2, 4, 8 bytes; F of 4, 8)";
-    f.size = static_cast<int>(size);
-    f.type = types[i][0];
-    if (!counts.empty() && (!parse_uint(counts[i], kMaxCount, &f.count) || f.count == 0))
-      return "field '" + f.name + "': COUNT '" + counts[i] + "' must be an integer in [1, " + std::to_string(kMaxCount) + "]";
-    f.offset = h->point_size;
-    h->point_size += static_cast<std::uint64_t>(f.size) * f.count;
-    h->values_per_point += f.count;
-  }
-  if (!h->has_points) {
-    if (!h->has_width) return "neither POINTS nor WIDTH is given";
-    const std::uint64_t height = h->has_height ? h->height : 1;
-    if (height != 0 && h->width > kMaxPoints / height) return "WIDTH * HEIGHT is too large";
-    h->points = h->width * height;
-  } else if (h->has_width && h->has_height && (h->height == 0 ? h->width != 0 || h->points != 0 : h->width > kMaxPoints / h->height || h->width * h->height != h->points)) {
-    return "POINTS " + std::to_string(h->points) + " is not WIDTH * HEIGHT (" + std::to_string(h->width) + " * " + std::to_string(h->height) + ")";
-  }
+  if (std::string reason = resolve_fields(sizes, types, counts, h); !reason.empty()) return reason;
+  if (std::string reason = resolve_point_count(h); !reason.empty()) return reason;
   *line_no = h->data_line;
   return {};
 }
@@ -197,9 +211,129 @@ int field_index(const PcdHeader& h, const std::string& name) {
 std::string at_line(const std::string& source, int line) { return source + ":" + std::to_string(line) + ": "; }
 std::string at_byte(const std::string& source, std::size_t offset) { return source + ": byte offset " + std::to_string(offset) + ": "; }
 
-}  // namespace
+/// The x, y, z (required) and intensity (optional) fields.
+struct PcdWanted {
+  int idx[4] = {-1, -1, -1, -1};  ///< field index of x, y, z, intensity
+  bool has_intensity = false;
+  int used = 3;  ///< values read a point: 3, or 4 with intensity
+};
 
-namespace {
+std::optional<std::string> find_wanted_fields(const PcdHeader& h, const std::string& source, PcdWanted* w) {
+  int idx[4] = {field_index(h, "x"), field_index(h, "y"), field_index(h, "z"), field_index(h, "intensity")};
+  for (int k = 0; k < 3; ++k)
+    if (idx[k] < 0) return source + ": the header has no '" + std::string(1, "xyz"[k]) + "' field";
+  for (int k = 0; k < 4; ++k) w->idx[k] = idx[k];
+  w->has_intensity = idx[3] >= 0;
+  w->used = w->has_intensity ? 4 : 3;
+  return std::nullopt;
+}
+
+/// DATA ascii: a point a non-blank line; the point count is checked as lines are read (no allocation up front).
+std::optional<std::string> read_ascii_points(const std::string& bytes, const std::string& source, const PcdHeader& h, const PcdWanted& w,
+                                             PointCloud* cloud) {
+  // Token index of each wanted value.
+  std::uint64_t token_of[4] = {0, 0, 0, 0};
+  for (int k = 0; k < w.used; ++k) {
+    std::uint64_t t = 0;
+    for (int f = 0; f < w.idx[k]; ++f) t += h.fields[static_cast<std::size_t>(f)].count;
+    token_of[k] = t;
+  }
+  std::size_t pos = h.data_offset;
+  int line = h.data_line;
+  std::vector<std::string> tokens;
+  while (pos < bytes.size()) {
+    std::size_t eol = bytes.find('\n', pos);
+    if (eol == std::string::npos) eol = bytes.size();
+    const std::string text = bytes.substr(pos, eol - pos);
+    pos = eol + 1;
+    ++line;
+    tokens = split_words(text);
+    if (tokens.empty()) continue;
+    if (cloud->points.size() >= h.points) return at_line(source, line) + "more points than the header's POINTS " + std::to_string(h.points);
+    if (tokens.size() != h.values_per_point)
+      return at_line(source, line) + "expected " + std::to_string(h.values_per_point) + " values, got " + std::to_string(tokens.size());
+    float v[4] = {0.f, 0.f, 0.f, 0.f};
+    for (int k = 0; k < w.used; ++k) {
+      const std::string& tok = tokens[static_cast<std::size_t>(token_of[k])];
+      if (!parse_float_token(tok, &v[k]))
+        return at_line(source, line) + "field '" + h.fields[static_cast<std::size_t>(w.idx[k])].name + "': '" + tok.substr(0, 64) + "' is not a number";
+    }
+    cloud->points.emplace_back(v[0], v[1], v[2]);
+    if (w.has_intensity) cloud->intensity.push_back(v[3]);
+  }
+  if (cloud->points.size() != h.points)
+    return at_line(source, line) + "the file ends after " + std::to_string(cloud->points.size()) + " of the " + std::to_string(h.points) +
+           " points the header declares";
+  return std::nullopt;
+}
+
+/// DATA binary_compressed: the 8-byte size header checked, the LZF data decompressed into *out, and the start of each
+/// wanted field's block (compressed PCD stores the fields one after another: all x, then all y, ...).
+std::optional<std::string> decompress_fields(const std::string& source, const PcdHeader& h, const PcdWanted& w, const unsigned char* base,
+                                             std::size_t remaining, std::uint64_t data_size, std::vector<unsigned char>* out,
+                                             std::uint64_t field_block[4]) {
+  if (remaining < 8)
+    return at_byte(source, h.data_offset) + "binary_compressed data needs an 8-byte size header, the file has " + std::to_string(remaining) + " bytes";
+  std::uint32_t compressed = 0, uncompressed = 0;
+  std::memcpy(&compressed, base, 4);
+  std::memcpy(&uncompressed, base + 4, 4);
+  if (compressed > remaining - 8)
+    return at_byte(source, h.data_offset) + "compressed size " + std::to_string(compressed) + " is more than the " + std::to_string(remaining - 8) +
+           " bytes present";
+  if (uncompressed != data_size)
+    return at_byte(source, h.data_offset + 4) + "uncompressed size " + std::to_string(uncompressed) + " is not POINTS * point size = " +
+           std::to_string(data_size);
+  if (data_size > static_cast<std::uint64_t>(compressed) * 88 + 8)
+    return at_byte(source, h.data_offset + 4) + "uncompressed size " + std::to_string(uncompressed) + " cannot come from " +
+           std::to_string(compressed) + " LZF bytes";
+  out->resize(static_cast<std::size_t>(data_size));
+  std::size_t bad = 0;
+  if (std::string reason = lzf_decompress(base + 8, compressed, out, &bad); !reason.empty())
+    return at_byte(source, h.data_offset + 8 + bad) + "LZF: " + reason;
+  for (int k = 0; k < w.used; ++k) {
+    std::uint64_t start = 0;
+    for (int f = 0; f < w.idx[k]; ++f) start += h.points * static_cast<std::uint64_t>(h.fields[static_cast<std::size_t>(f)].size) * h.fields[static_cast<std::size_t>(f)].count;
+    field_block[k] = start;
+  }
+  return std::nullopt;
+}
+
+/// DATA binary and binary_compressed: the declared size must be present before anything is allocated.
+std::optional<std::string> read_binary_points(const std::string& bytes, const std::string& source, const PcdHeader& h, const PcdWanted& w,
+                                              PointCloud* cloud) {
+  const std::size_t remaining = bytes.size() - h.data_offset;
+  if (h.point_size == 0 || h.points > std::numeric_limits<std::uint64_t>::max() / h.point_size)
+    return at_byte(source, h.data_offset) + "POINTS * point size overflows";
+  const std::uint64_t data_size = h.points * h.point_size;
+  const unsigned char* base = reinterpret_cast<const unsigned char*>(bytes.data()) + h.data_offset;
+  std::vector<unsigned char> decompressed;
+  const unsigned char* data = base;
+  std::uint64_t field_block[4] = {0, 0, 0, 0};  // binary_compressed: start of each wanted field's block
+  if (h.data == "binary") {
+    if (data_size > remaining)
+      return at_byte(source, h.data_offset) + "DATA binary needs " + std::to_string(h.points) + " points * " + std::to_string(h.point_size) +
+             " bytes = " + std::to_string(data_size) + " bytes, the file has " + std::to_string(remaining) + " after the header";
+  } else {
+    if (auto reason = decompress_fields(source, h, w, base, remaining, data_size, &decompressed, field_block)) return reason;
+    data = decompressed.data();
+  }
+  const auto n = static_cast<std::size_t>(h.points);
+  cloud->points.resize(n);
+  if (w.has_intensity) cloud->intensity.resize(n);
+  const bool compressed = h.data == "binary_compressed";
+  for (std::size_t i = 0; i < n; ++i) {
+    float v[4] = {0.f, 0.f, 0.f, 0.f};
+    for (int k = 0; k < w.used; ++k) {
+      const PcdField& f = h.fields[static_cast<std::size_t>(w.idx[k])];
+      const std::uint64_t at = compressed ? field_block[k] + i * static_cast<std::uint64_t>(f.size) * f.count : i * h.point_size + f.offset;
+      v[k] = read_scalar_as_float(data + at, f.scalar, false);
+    }
+    cloud->points[i] = Eigen::Vector3f(v[0], v[1], v[2]);
+    if (w.has_intensity) cloud->intensity[i] = v[3];
+  }
+  return std::nullopt;
+}
+
 bool parse_pcd_points(const std::string& bytes, const std::string& source, PointCloud* cloud, std::string* error) {
   *cloud = PointCloud();
   PcdHeader h;
@@ -208,130 +342,12 @@ bool parse_pcd_points(const std::string& bytes, const std::string& source, Point
     *error = at_line(source, line_no) + reason;
     return false;
   }
-  int idx[4] = {field_index(h, "x"), field_index(h, "y"), field_index(h, "z"), field_index(h, "intensity")};
-  for (int k = 0; k < 3; ++k)
-    if (idx[k] < 0) {
-      *error = source + ": the header has no '" + std::string(1, "xyz"[k]) + "' field";
-      return false;
-    }
-  const bool has_intensity = idx[3] >= 0;
-  const int used = has_intensity ? 4 : 3;
-  const std::size_t remaining = bytes.size() - h.data_offset;
-
-  if (h.data == "ascii") {
-    // Token index of each wanted value; the point count is checked as lines are read (no allocation up front).
-    std::uint64_t token_of[4] = {0, 0, 0, 0};
-    for (int k = 0; k < used; ++k) {
-      std::uint64_t t = 0;
-      for (int f = 0; f < idx[k]; ++f) t += h.fields[static_cast<std::size_t>(f)].count;
-      token_of[k] = t;
-    }
-    std::size_t pos = h.data_offset;
-    int line = h.data_line;
-    std::vector<std::string> tokens;
-    while (pos < bytes.size()) {
-      std::size_t eol = bytes.find('\n', pos);
-      if (eol == std::string::npos) eol = bytes.size();
-      const std::string text = bytes.substr(pos, eol - pos);
-      pos = eol + 1;
-      ++line;
-      tokens = split_words(text);
-      if (tokens.empty()) continue;
-      if (cloud->points.size() >= h.points) {
-        *error = at_line(source, line) + "more points than the header's POINTS " + std::to_string(h.points);
-        return false;
-      }
-      if (tokens.size() != h.values_per_point) {
-        *error = at_line(source, line) + "expected " + std::to_string(h.values_per_point) + " values, got " + std::to_string(tokens.size());
-        return false;
-      }
-      float v[4] = {0.f, 0.f, 0.f, 0.f};
-      for (int k = 0; k < used; ++k) {
-        const std::string& tok = tokens[static_cast<std::size_t>(token_of[k])];
-        if (!parse_float_token(tok, &v[k])) {
-          *error = at_line(source, line) + "field '" + h.fields[static_cast<std::size_t>(idx[k])].name + "': '" + tok.substr(0, 64) + "' is not a number";
-          return false;
-        }
-      }
-      cloud->points.emplace_back(v[0], v[1], v[2]);
-      if (has_intensity) cloud->intensity.push_back(v[3]);
-    }
-    if (cloud->points.size() != h.points) {
-      *error = at_line(source, line) + "the file ends after " + std::to_string(cloud->points.size()) + " of the " + std::to_string(h.points) +
-               " points the header declares";
-      return false;
-    }
-    return true;
-  }
-
-  // binary and binary_compressed: the declared size must be present before anything is allocated.
-  if (h.point_size == 0 || h.points > std::numeric_limits<std::uint64_t>::max() / h.point_size) {
-    *error = at_byte(source, h.data_offset) + "POINTS * point size overflows";
-    return false;
-  }
-  const std::uint64_t data_size = h.points * h.point_size;
-  const unsigned char* base = reinterpret_cast<const unsigned char*>(bytes.data()) + h.data_offset;
-  std::vector<unsigned char> decompressed;
-  const unsigned char* data = base;
-  std::uint64_t field_block[4] = {0, 0, 0, 0};  // binary_compressed: start of each wanted field's block
-  if (h.data == "binary") {
-    if (data_size > remaining) {
-      *error = at_byte(source, h.data_offset) + "DATA binary needs " + std::to_string(h.points) + " points * " + std::to_string(h.point_size) +
-               " bytes = " + std::to_string(data_size) + " bytes, the file has " + std::to_string(remaining) + " after the header";
-      return false;
-    }
-  } else {
-    if (remaining < 8) {
-      *error = at_byte(source, h.data_offset) + "binary_compressed data needs an 8-byte size header, the file has " + std::to_string(remaining) + " bytes";
-      return false;
-    }
-    std::uint32_t compressed = 0, uncompressed = 0;
-    std::memcpy(&compressed, base, 4);
-    std::memcpy(&uncompressed, base + 4, 4);
-    if (compressed > remaining - 8) {
-      *error = at_byte(source, h.data_offset) + "compressed size " + std::to_string(compressed) + " is more than the " + std::to_string(remaining - 8) +
-               " bytes present";
-      return false;
-    }
-    if (uncompressed != data_size) {
-      *error = at_byte(source, h.data_offset + 4) + "uncompressed size " + std::to_string(uncompressed) + " is not POINTS * point size = " +
-               std::to_string(data_size);
-      return false;
-    }
-    if (data_size > static_cast<std::uint64_t>(compressed) * 88 + 8) {
-      *error = at_byte(source, h.data_offset + 4) + "uncompressed size " + std::to_string(uncompressed) + " cannot come from " +
-               std::to_string(compressed) + " LZF bytes";
-      return false;
-    }
-    decompressed.resize(static_cast<std::size_t>(data_size));
-    std::size_t bad = 0;
-    if (std::string reason = lzf_decompress(base + 8, compressed, &decompressed, &bad); !reason.empty()) {
-      *error = at_byte(source, h.data_offset + 8 + bad) + "LZF: " + reason;
-      return false;
-    }
-    data = decompressed.data();
-    // Compressed PCD stores the fields one after another (all x, then all y, ...).
-    for (int k = 0; k < used; ++k) {
-      std::uint64_t start = 0;
-      for (int f = 0; f < idx[k]; ++f) start += h.points * static_cast<std::uint64_t>(h.fields[static_cast<std::size_t>(f)].size) * h.fields[static_cast<std::size_t>(f)].count;
-      field_block[k] = start;
-    }
-  }
-  const auto n = static_cast<std::size_t>(h.points);
-  cloud->points.resize(n);
-  if (has_intensity) cloud->intensity.resize(n);
-  const bool compressed = h.data == "binary_compressed";
-  for (std::size_t i = 0; i < n; ++i) {
-    float v[4] = {0.f, 0.f, 0.f, 0.f};
-    for (int k = 0; k < used; ++k) {
-      const PcdField& f = h.fields[static_cast<std::size_t>(idx[k])];
-      const std::uint64_t at = compressed ? field_block[k] + i * static_cast<std::uint64_t>(f.size) * f.count : i * h.point_size + f.offset;
-      v[k] = read_scalar_as_float(data + at, f.scalar, false);
-    }
-    cloud->points[i] = Eigen::Vector3f(v[0], v[1], v[2]);
-    if (has_intensity) cloud->intensity[i] = v[3];
-  }
-  return true;
+  PcdWanted wanted;
+  std::optional<std::string> reason = find_wanted_fields(h, source, &wanted);
+  if (!reason) reason = h.data == "ascii" ? read_ascii_points(bytes, source, h, wanted, cloud) : read_binary_points(bytes, source, h, wanted, cloud);
+  if (!reason) return true;
+  *error = *reason;
+  return false;
 }
 
 }  // namespace

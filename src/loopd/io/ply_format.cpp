@@ -1,6 +1,7 @@
 #include "loopd/io/ply_format.hpp"
 
 #include <cstdint>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -148,149 +149,166 @@ struct Wanted {
   int idx[4] = {-1, -1, -1, -1};
 };
 
-}  // namespace
-
-namespace {
-bool parse_ply_points(const std::string& bytes, const std::string& source, PointCloud* cloud, std::string* error) {
-  *cloud = PointCloud();
+/// What the header says about the data: the elements, their encoding, and which vertex properties are read.
+struct PlyLayout {
   std::vector<PlyElement> elements;
   PlyFormat format = PlyFormat::kAscii;
-  std::size_t data_offset = 0;
-  int line_no = 0;
-  if (std::string reason = parse_header(bytes, &elements, &format, &data_offset, &line_no); !reason.empty()) {
-    *error = at_line(source, line_no) + reason;
-    return false;
-  }
+  std::size_t data_offset = 0;  ///< first byte after end_header
+  int header_lines = 0;         ///< lines up to end_header
+  std::size_t vertex = 0;       ///< index of the 'vertex' element
+  Wanted want;
+  bool has_intensity = false;
+};
+
+/// Header, then the 'vertex' element and its x, y, z (required, scalar) and intensity (optional) properties.
+std::optional<std::string> read_layout(const std::string& bytes, const std::string& source, PlyLayout* l) {
+  std::vector<PlyElement>& elements = l->elements;
+  if (std::string reason = parse_header(bytes, &elements, &l->format, &l->data_offset, &l->header_lines); !reason.empty())
+    return at_line(source, l->header_lines) + reason;
   std::size_t vertex = elements.size();
   for (std::size_t e = 0; e < elements.size() && vertex == elements.size(); ++e)
     if (elements[e].name == "vertex") vertex = e;
-  if (vertex == elements.size()) {
-    *error = source + ": no 'vertex' element in the header";
-    return false;
-  }
+  if (vertex == elements.size()) return source + ": no 'vertex' element in the header";
+  l->vertex = vertex;
   const PlyElement& ve = elements[vertex];
-  Wanted want;
+  Wanted& want = l->want;
   static const char* kNames[4] = {"x", "y", "z", "intensity"};
   for (std::size_t p = 0; p < ve.properties.size(); ++p)
     for (int k = 0; k < 4; ++k)
       if (ve.properties[p].name == kNames[k] && want.idx[k] < 0) want.idx[k] = static_cast<int>(p);
   for (int k = 0; k < 3; ++k) {
-    if (want.idx[k] < 0) {
-      *error = source + ": the vertex element has no '" + kNames[k] + "' property";
-      return false;
+    if (want.idx[k] < 0) return source + ": the vertex element has no '" + kNames[k] + "' property";
+    if (ve.properties[static_cast<std::size_t>(want.idx[k])].is_list) return source + ": vertex property '" + kNames[k] + "' is a list";
+  }
+  l->has_intensity = want.idx[3] >= 0 && !ve.properties[static_cast<std::size_t>(want.idx[3])].is_list;
+  return std::nullopt;
+}
+
+/// One ascii row of element el (row i): every property (lists included) parsed, the wanted ones of a vertex in v.
+std::optional<std::string> read_ascii_row(TokenReader& tr, const std::string& source, const PlyElement& el, std::uint64_t i,
+                                          const Wanted* want, float v[4]) {
+  std::string tok;
+  for (std::size_t p = 0; p < el.properties.size(); ++p) {
+    const PlyProperty& prop = el.properties[p];
+    if (!tr.next(&tok))
+      return at_line(source, tr.line()) + "the file ends in element '" + el.name + "' " + std::to_string(i) + " of " + std::to_string(el.count);
+    std::uint64_t items = 1;
+    if (prop.is_list) {
+      if (!parse_uint(tok, kMaxCount, &items))
+        return at_line(source, tr.line()) + "list length '" + tok.substr(0, 64) + "' of property '" + prop.name + "' is not a count";
     }
-    if (ve.properties[static_cast<std::size_t>(want.idx[k])].is_list) {
-      *error = source + ": vertex property '" + kNames[k] + "' is a list";
-      return false;
+    for (std::uint64_t k = 0; k < items; ++k) {
+      if (prop.is_list && !tr.next(&tok)) return at_line(source, tr.line()) + "the file ends in list property '" + prop.name + "'";
+      float value = 0.f;
+      if (!parse_float_token(tok, &value))
+        return at_line(source, tr.line()) + "property '" + prop.name + "': '" + tok.substr(0, 64) + "' is not a number";
+      if (want && !prop.is_list)
+        for (int w = 0; w < 4; ++w)
+          if (want->idx[w] == static_cast<int>(p)) v[w] = value;
     }
   }
-  const bool has_intensity = want.idx[3] >= 0 && !ve.properties[static_cast<std::size_t>(want.idx[3])].is_list;
+  return std::nullopt;
+}
 
-  if (format == PlyFormat::kAscii) {
-    TokenReader tr(bytes, data_offset, line_no + 1);  // the data start on the line after end_header
-    std::string tok;
-    for (std::size_t e = 0; e <= vertex; ++e) {
-      const PlyElement& el = elements[e];
-      if (el.properties.empty()) continue;
-      for (std::uint64_t i = 0; i < el.count; ++i) {
-        float v[4] = {0.f, 0.f, 0.f, 0.f};
-        for (std::size_t p = 0; p < el.properties.size(); ++p) {
-          const PlyProperty& prop = el.properties[p];
-          if (!tr.next(&tok)) {
-            *error = at_line(source, tr.line()) + "the file ends in element '" + el.name + "' " + std::to_string(i) + " of " + std::to_string(el.count);
-            return false;
-          }
-          std::uint64_t items = 1;
-          if (prop.is_list) {
-            if (!parse_uint(tok, kMaxCount, &items)) {
-              *error = at_line(source, tr.line()) + "list length '" + tok.substr(0, 64) + "' of property '" + prop.name + "' is not a count";
-              return false;
-            }
-          }
-          for (std::uint64_t k = 0; k < items; ++k) {
-            if (prop.is_list && !tr.next(&tok)) {
-              *error = at_line(source, tr.line()) + "the file ends in list property '" + prop.name + "'";
-              return false;
-            }
-            float value = 0.f;
-            if (!parse_float_token(tok, &value)) {
-              *error = at_line(source, tr.line()) + "property '" + prop.name + "': '" + tok.substr(0, 64) + "' is not a number";
-              return false;
-            }
-            if (e == vertex && !prop.is_list)
-              for (int w = 0; w < 4; ++w)
-                if (want.idx[w] == static_cast<int>(p)) v[w] = value;
-          }
-        }
-        if (e == vertex) {
-          cloud->points.emplace_back(v[0], v[1], v[2]);
-          if (has_intensity) cloud->intensity.push_back(v[3]);
-        }
-      }
-    }
-    return true;
-  }
-
-  const bool big = format == PlyFormat::kBinaryBig;
-  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
-  const std::size_t end = bytes.size();
-  std::size_t pos = data_offset;
-  for (std::size_t e = 0; e <= vertex; ++e) {
-    const PlyElement& el = elements[e];
+/// Ascii body: the elements up to and including 'vertex', one row after the other.
+std::optional<std::string> read_ascii_body(const std::string& bytes, const std::string& source, const PlyLayout& l, PointCloud* cloud) {
+  TokenReader tr(bytes, l.data_offset, l.header_lines + 1);  // the data start on the line after end_header
+  for (std::size_t e = 0; e <= l.vertex; ++e) {
+    const PlyElement& el = l.elements[e];
     if (el.properties.empty()) continue;
-    // A vertex of fixed size: the whole element must be present before the cloud is sized.
-    std::uint64_t row = 0;
-    bool fixed = true;
-    for (const auto& p : el.properties) {
-      fixed &= !p.is_list;
-      row += static_cast<std::uint64_t>(scalar_size(p.type));
-    }
-    if (e == vertex && fixed) {
-      if (el.count > (end - pos) / row) {
-        *error = at_byte(source, pos) + "element 'vertex' declares " + std::to_string(el.count) + " vertices of " + std::to_string(row) +
-                 " bytes, the file has " + std::to_string(end - pos) + " bytes left";
-        return false;
-      }
-      cloud->points.reserve(static_cast<std::size_t>(el.count));
-      if (has_intensity) cloud->intensity.reserve(static_cast<std::size_t>(el.count));
-    }
     for (std::uint64_t i = 0; i < el.count; ++i) {
       float v[4] = {0.f, 0.f, 0.f, 0.f};
-      for (std::size_t p = 0; p < el.properties.size(); ++p) {
-        const PlyProperty& prop = el.properties[p];
-        std::uint64_t items = 1;
-        if (prop.is_list) {
-          const auto cs = static_cast<std::size_t>(scalar_size(prop.count_type));
-          if (end - pos < cs) {
-            *error = at_byte(source, pos) + "the file ends in element '" + el.name + "' " + std::to_string(i) + " of " + std::to_string(el.count);
-            return false;
-          }
-          const float n = read_scalar_as_float(data + pos, prop.count_type, big);
-          if (!(n >= 0.f) || n > 4.0e9f) {
-            *error = at_byte(source, pos) + "list length of property '" + prop.name + "' is negative or too large";
-            return false;
-          }
-          items = static_cast<std::uint64_t>(n);
-          pos += cs;
-        }
-        const auto size = static_cast<std::uint64_t>(scalar_size(prop.type));
-        if (items > (end - pos) / size) {
-          *error = at_byte(source, pos) + "the file ends in element '" + el.name + "' " + std::to_string(i) + " of " + std::to_string(el.count) +
-                   " (property '" + prop.name + "')";
-          return false;
-        }
-        if (e == vertex && !prop.is_list)
-          for (int w = 0; w < 4; ++w)
-            if (want.idx[w] == static_cast<int>(p)) v[w] = read_scalar_as_float(data + pos, prop.type, big);
-        pos += static_cast<std::size_t>(items * size);
-      }
-      if (e == vertex) {
+      if (auto reason = read_ascii_row(tr, source, el, i, e == l.vertex ? &l.want : nullptr, v)) return reason;
+      if (e == l.vertex) {
         cloud->points.emplace_back(v[0], v[1], v[2]);
-        if (has_intensity) cloud->intensity.push_back(v[3]);
+        if (l.has_intensity) cloud->intensity.push_back(v[3]);
       }
     }
   }
-  return true;
+  return std::nullopt;
+}
+
+/// A vertex of fixed size: the whole element must be present before the cloud is sized.
+std::optional<std::string> reserve_vertices(const std::string& source, const PlyElement& el, std::size_t pos, std::size_t end,
+                                            bool has_intensity, PointCloud* cloud) {
+  std::uint64_t row = 0;
+  bool fixed = true;
+  for (const auto& p : el.properties) {
+    fixed &= !p.is_list;
+    row += static_cast<std::uint64_t>(scalar_size(p.type));
+  }
+  if (!fixed) return std::nullopt;
+  if (el.count > (end - pos) / row)
+    return at_byte(source, pos) + "element 'vertex' declares " + std::to_string(el.count) + " vertices of " + std::to_string(row) +
+           " bytes, the file has " + std::to_string(end - pos) + " bytes left";
+  cloud->points.reserve(static_cast<std::size_t>(el.count));
+  if (has_intensity) cloud->intensity.reserve(static_cast<std::size_t>(el.count));
+  return std::nullopt;
+}
+
+/// The binary data of one file and the read position in it.
+struct BinaryCursor {
+  const unsigned char* data;
+  std::size_t end;
+  std::size_t pos;
+  bool big;  ///< big-endian
+};
+
+/// One binary row of element el (row i): every property skipped or read, the wanted ones of a vertex in v.
+std::optional<std::string> read_binary_row(BinaryCursor& c, const std::string& source, const PlyElement& el, std::uint64_t i,
+                                           const Wanted* want, float v[4]) {
+  for (std::size_t p = 0; p < el.properties.size(); ++p) {
+    const PlyProperty& prop = el.properties[p];
+    std::uint64_t items = 1;
+    if (prop.is_list) {
+      const auto cs = static_cast<std::size_t>(scalar_size(prop.count_type));
+      if (c.end - c.pos < cs)
+        return at_byte(source, c.pos) + "the file ends in element '" + el.name + "' " + std::to_string(i) + " of " + std::to_string(el.count);
+      const float n = read_scalar_as_float(c.data + c.pos, prop.count_type, c.big);
+      if (!(n >= 0.f) || n > 4.0e9f) return at_byte(source, c.pos) + "list length of property '" + prop.name + "' is negative or too large";
+      items = static_cast<std::uint64_t>(n);
+      c.pos += cs;
+    }
+    const auto size = static_cast<std::uint64_t>(scalar_size(prop.type));
+    if (items > (c.end - c.pos) / size)
+      return at_byte(source, c.pos) + "the file ends in element '" + el.name + "' " + std::to_string(i) + " of " + std::to_string(el.count) +
+             " (property '" + prop.name + "')";
+    if (want && !prop.is_list)
+      for (int w = 0; w < 4; ++w)
+        if (want->idx[w] == static_cast<int>(p)) v[w] = read_scalar_as_float(c.data + c.pos, prop.type, c.big);
+    c.pos += static_cast<std::size_t>(items * size);
+  }
+  return std::nullopt;
+}
+
+/// Binary body (either byte order): the elements up to and including 'vertex', one row after the other.
+std::optional<std::string> read_binary_body(const std::string& bytes, const std::string& source, const PlyLayout& l, PointCloud* cloud) {
+  BinaryCursor c{reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), l.data_offset, l.format == PlyFormat::kBinaryBig};
+  for (std::size_t e = 0; e <= l.vertex; ++e) {
+    const PlyElement& el = l.elements[e];
+    if (el.properties.empty()) continue;
+    if (e == l.vertex)
+      if (auto reason = reserve_vertices(source, el, c.pos, c.end, l.has_intensity, cloud)) return reason;
+    for (std::uint64_t i = 0; i < el.count; ++i) {
+      float v[4] = {0.f, 0.f, 0.f, 0.f};
+      if (auto reason = read_binary_row(c, source, el, i, e == l.vertex ? &l.want : nullptr, v)) return reason;
+      if (e == l.vertex) {
+        cloud->points.emplace_back(v[0], v[1], v[2]);
+        if (l.has_intensity) cloud->intensity.push_back(v[3]);
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+bool parse_ply_points(const std::string& bytes, const std::string& source, PointCloud* cloud, std::string* error) {
+  *cloud = PointCloud();
+  PlyLayout layout;
+  std::optional<std::string> reason = read_layout(bytes, source, &layout);
+  if (!reason) reason = layout.format == PlyFormat::kAscii ? read_ascii_body(bytes, source, layout, cloud) : read_binary_body(bytes, source, layout, cloud);
+  if (!reason) return true;
+  *error = *reason;
+  return false;
 }
 
 }  // namespace
