@@ -314,6 +314,430 @@ int lcp_count(const Eigen::Isometry3d& T, const std::vector<Eigen::Vector3f>& sa
   return count < must_reach ? -1 : count;
 }
 
+// ---- Step 2 inputs (Sec. 4.2.2): target points and the coplanar pairs among them ----
+
+// The target side of the congruent-set search: pool points on planar clusters and the pairs among them.
+struct TargetPairs {
+  const Segmentation& seg;
+  std::vector<PoolPoint> pool;
+  std::vector<Pair> pairs;  // sorted by length (ties: by indices)
+};
+
+// Target points that may form congruent sets: hulls (and downsampled members) of planar clusters (Sec. 4.2.2).
+std::vector<PoolPoint> target_pool(const Segmentation& target_seg, const FourPcsConfig& cfg) {
+  std::vector<PoolPoint> pool;
+  for (int ci = 0; ci < static_cast<int>(target_seg.clusters.size()); ++ci) {
+    const auto& cl = target_seg.clusters[static_cast<std::size_t>(ci)];
+    if (!cl.planar) continue;
+    for (const auto& p : cl.hull) pool.push_back({p, ci});
+    if (cfg.use_cluster_points)
+      for (const auto& p : cl.points) pool.push_back({p, ci});
+  }
+  return pool;
+}
+
+constexpr float kLenBin = 0.1f;  // [m] bin of the wanted-length table
+
+// Only lengths some base diagonal can use are kept: a table over kLenBin length bins.
+std::vector<char> wanted_lengths(const std::vector<Base>& bases, const FourPcsConfig& cfg) {
+  std::vector<char> wanted;
+  for (const Base& b : bases)
+    for (float len : {b.len1, b.len2}) {
+      const int lo = std::max(0, static_cast<int>((len - static_cast<float>(cfg.pair_distance_tolerance)) / kLenBin) - 1);
+      const int hi = static_cast<int>((len + static_cast<float>(cfg.pair_distance_tolerance)) / kLenBin) + 1;
+      if (static_cast<int>(wanted.size()) <= hi) wanted.resize(static_cast<std::size_t>(hi + 1), 0);
+      for (int k = lo; k <= hi; ++k) wanted[static_cast<std::size_t>(k)] = 1;
+    }
+  return wanted;
+}
+
+// Pairs of pool points lying in one physical plane (same cluster, or clusters of the same plane) with a wanted
+// length, sorted by length.
+std::vector<Pair> coplanar_pairs(const std::vector<PoolPoint>& pool, const Segmentation& target_seg, const std::vector<char>& wanted,
+                                 const FourPcsConfig& cfg) {
+  const float cop = static_cast<float>(cfg.coplanar_tolerance);
+  const float min_len = static_cast<float>(cfg.min_base_width - cfg.pair_distance_tolerance);
+  const float cos_same_plane = static_cast<float>(std::cos(deg2rad(15.0)));
+  const float max_len = static_cast<float>(wanted.size()) * kLenBin;
+  std::vector<Pair> pairs;
+  for (int i = 0; i < static_cast<int>(pool.size()); ++i) {
+    const auto& pi = pool[static_cast<std::size_t>(i)];
+    const Eigen::Vector4f& Pi = target_seg.clusters[static_cast<std::size_t>(pi.cluster)].plane;
+    for (int j = i + 1; j < static_cast<int>(pool.size()); ++j) {
+      const auto& pj = pool[static_cast<std::size_t>(j)];
+      const float d2 = (pi.p - pj.p).squaredNorm();
+      if (d2 < min_len * min_len || d2 >= max_len * max_len) continue;
+      const float d = std::sqrt(d2);
+      if (!wanted[static_cast<std::size_t>(d / kLenBin)]) continue;
+      if (pj.cluster != pi.cluster) {
+        const Eigen::Vector4f& Pj = target_seg.clusters[static_cast<std::size_t>(pj.cluster)].plane;
+        if (std::abs(Pi.head<3>().dot(Pj.head<3>())) < cos_same_plane) continue;
+        if (std::abs(Pi.head<3>().dot(pj.p) + Pi.w()) > cop || std::abs(Pj.head<3>().dot(pi.p) + Pj.w()) > cop) continue;
+      }
+      pairs.push_back({i, j, d});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.dist < b.dist || (a.dist == b.dist && (a.i < b.i || (a.i == b.i && a.j < b.j))); });
+  return pairs;
+}
+
+// ---- LCP scoring data and search tolerances ----
+
+// The refinement keeps the ground: it is what pins height, roll and pitch.
+std::vector<Eigen::Vector3f> refine_lcp_sample(const std::vector<Eigen::Vector3f>& pts, const Segmentation& seg, const FourPcsConfig& cfg) {
+  FourPcsConfig refine_cfg = cfg;
+  refine_cfg.lcp_exclude_ground = false;
+  return lcp_sample(pts, seg, refine_cfg);
+}
+
+// LCP scoring data (Sec. 4.2.3): the scrambled source samples and the target tree. Built in place and never copied
+// (the tree refers to the target points).
+struct LcpScoring {
+  LcpScoring(const std::vector<Eigen::Vector3f>& source_points, const Segmentation& source_seg, const std::vector<Eigen::Vector3f>& target_points_in,
+             const FourPcsConfig& cfg)
+      : sample(lcp_sample(source_points, source_seg, cfg)),
+        refine_sample(refine_lcp_sample(source_points, source_seg, cfg)),
+        target_points(target_points_in),
+        target_tree(target_points_in),
+        delta_sq(static_cast<float>(cfg.delta * cfg.delta)),
+        n_sample(static_cast<int>(sample.size())),
+        prescreen_n(std::min(cfg.prescreen_points, n_sample)) {}
+  LcpScoring(const LcpScoring&) = delete;
+  LcpScoring& operator=(const LcpScoring&) = delete;
+
+  std::vector<Eigen::Vector3f> sample;         // scored for the LCP (ground excluded when asked)
+  std::vector<Eigen::Vector3f> refine_sample;  // used by the closest-point refinement (ground kept)
+  const std::vector<Eigen::Vector3f>& target_points;
+  PointTree target_tree;
+  float delta_sq;   // [m^2]
+  int n_sample;     // sample.size()
+  int prescreen_n;  // prescore on sample[0, prescreen_n)
+};
+
+// Tolerances of the congruent-set search (Sec. 4.2.2), converted once from the config.
+struct SearchTolerances {
+  float cop = 0;            // [m] the 4 target points lie this close to the first pair's plane
+  double max_tilt = 0;      // [rad] max up-axis change, and max plane tilt difference base/target
+  double cos_max_tilt = 0;  // cos(max_tilt)
+  float cos_angle_tol = 0;  // [rad] rigid check on the angle between the diagonals (an angle, not a cosine)
+  float pair_tol = 0;       // [m] pair length vs diagonal length
+  float e_tol = 0;          // [m] coincident intermediate points
+  double rot_step = 0;      // [rad] pose cell for de-duplication
+  double trans_step = 0;    // [m] pose cell for de-duplication
+};
+
+SearchTolerances search_tolerances(const FourPcsConfig& cfg) {
+  SearchTolerances tol;
+  tol.cop = static_cast<float>(cfg.coplanar_tolerance);
+  tol.max_tilt = deg2rad(cfg.max_tilt_deg);
+  tol.cos_max_tilt = std::cos(tol.max_tilt);
+  tol.cos_angle_tol = static_cast<float>(deg2rad(cfg.max_angle_deviation_deg));
+  tol.pair_tol = static_cast<float>(cfg.pair_distance_tolerance);
+  tol.e_tol = static_cast<float>(cfg.intermediate_tolerance);
+  tol.rot_step = deg2rad(cfg.dedupe_rotation_deg);
+  tol.trans_step = cfg.dedupe_translation;
+  return tol;
+}
+
+// ---- Steps 2-3, per base (Sec. 4.2.2) ----
+
+// The pair-level checks of one base: pairs as long as each diagonal, on target planes whose tilt matches the base's.
+struct DiagonalChecks {
+  using PairRange = std::pair<std::vector<Pair>::const_iterator, std::vector<Pair>::const_iterator>;
+
+  DiagonalChecks(const Base& base_in, const TargetPairs& target_in, const SearchTolerances& tol_in)
+      : base(base_in),
+        target(target_in),
+        tol(tol_in),
+        dz1(base_in.p[1].z() - base_in.p[0].z()),
+        dz2(base_in.p[3].z() - base_in.p[2].z()),
+        sin_tilt(static_cast<float>(std::sin(std::min(tol_in.max_tilt, kPi / 2)))) {}
+
+  PairRange pairs_of_length(float len) const {
+    const auto lo = std::lower_bound(target.pairs.begin(), target.pairs.end(), len - tol.pair_tol, [](const Pair& p, float v) { return p.dist < v; });
+    const auto hi = std::upper_bound(target.pairs.begin(), target.pairs.end(), len + tol.pair_tol, [](float v, const Pair& p) { return v < p.dist; });
+    return std::make_pair(lo, hi);
+  }
+  bool tilt_ok(int pool_index) const {
+    const auto& cl = target.seg.clusters[static_cast<std::size_t>(target.pool[static_cast<std::size_t>(pool_index)].cluster)];
+    return std::abs(plane_tilt(cl.plane) - base.tilt) <= tol.max_tilt;
+  }
+  // Up-axis check at pair level: a diagonal's height change can differ from the base's only by the allowed tilt.
+  bool dz_ok(const Eigen::Vector3f& a, const Eigen::Vector3f& b, float dz_base, float len) const {
+    return std::abs((b.z() - a.z()) - dz_base) <= 2.f * sin_tilt * len + tol.pair_tol;
+  }
+
+  const Base& base;
+  const TargetPairs& target;
+  const SearchTolerances& tol;
+  float dz1, dz2;  // [m] height change along each base diagonal
+  float sin_tilt;
+};
+
+// The rigid check of a congruent set against its base: the angle between the diagonals and the four cross
+// distances, which together make it exact for 4 points.
+struct RigidCheck {
+  RigidCheck(const Base& base, const SearchTolerances& tol) {
+    const double base_angle = std::acos(std::max(-1.f, std::min(1.f, base.cos_angle)));
+    cos_hi = static_cast<float>(std::cos(std::max(0.0, base_angle - tol.cos_angle_tol)));
+    cos_lo = static_cast<float>(std::cos(std::min(kPi, base_angle + tol.cos_angle_tol)));
+    ac = (base.p[2] - base.p[0]).norm();
+    ad = (base.p[3] - base.p[0]).norm();
+    bc = (base.p[2] - base.p[1]).norm();
+    bd = (base.p[3] - base.p[1]).norm();
+    cross_tol = 2.f * tol.pair_tol;
+  }
+  float cos_hi = 0, cos_lo = 0;        // accepted range of the cosine of the angle between the diagonals
+  float ac = 0, ad = 0, bc = 0, bd = 0;  // [m] cross distances of the base
+  float cross_tol = 0;                 // [m]
+};
+
+// Buffers of the per-base search, reused from base to base.
+struct BaseScratch {
+  std::vector<Eigen::Vector3f> e2;           // intermediate points of the second diagonal
+  std::vector<std::pair<int, int>> e2_pair;  // the oriented pool pair of each e2
+  std::vector<int> hits;                     // e2 indices near one e1
+  std::vector<Candidate> cands;              // congruent sets of the base
+};
+
+// Intermediate points of the second diagonal, Eq. (2) with r2, both orientations of each pair.
+void second_diagonal_points(const DiagonalChecks& chk, BaseScratch* s) {
+  const Base& base = chk.base;
+  const std::vector<PoolPoint>& pool = chk.target.pool;
+  s->e2.clear();
+  s->e2_pair.clear();
+  const auto r2 = chk.pairs_of_length(base.len2);
+  for (auto it = r2.first; it != r2.second; ++it) {
+    if (!chk.tilt_ok(it->i)) continue;
+    const Eigen::Vector3f& a = pool[static_cast<std::size_t>(it->i)].p;
+    const Eigen::Vector3f& b = pool[static_cast<std::size_t>(it->j)].p;
+    if (chk.dz_ok(a, b, chk.dz2, base.len2)) {
+      s->e2.push_back(a + base.r2 * (b - a));
+      s->e2_pair.emplace_back(it->i, it->j);
+    }
+    if (chk.dz_ok(b, a, chk.dz2, base.len2)) {
+      s->e2.push_back(b + base.r2 * (a - b));
+      s->e2_pair.emplace_back(it->j, it->i);
+    }
+  }
+}
+
+// Congruent sets whose first diagonal is the oriented pool pair (i, j) of length `dist`: its intermediate point e1
+// (Eq. 2 with r1) coincides with an e2, the rigid check holds and the 4 points lie on the pair's plane. Appends to
+// s->cands, at most up to max_congruent_sets_per_base.
+void congruent_sets_on_pair(int i, int j, float dist, const DiagonalChecks& chk, const RigidCheck& rigid, const PointTree& e2_tree,
+                            const FourPcsConfig& cfg, BaseScratch* s) {
+  const Base& base = chk.base;
+  const std::vector<PoolPoint>& pool = chk.target.pool;
+  const float cop = chk.tol.cop;
+  const Eigen::Vector3f& a = pool[static_cast<std::size_t>(i)].p;
+  const Eigen::Vector3f& b = pool[static_cast<std::size_t>(j)].p;
+  if (!chk.dz_ok(a, b, chk.dz1, base.len1)) return;
+  const Eigen::Vector3f e1 = a + base.r1 * (b - a);
+  s->hits.clear();
+  e2_tree.radius(e1, chk.tol.e_tol * chk.tol.e_tol, &s->hits);
+  std::sort(s->hits.begin(), s->hits.end());
+  const Eigen::Vector3f u = (b - a) / dist;
+  const Eigen::Vector4f& plane = chk.target.seg.clusters[static_cast<std::size_t>(pool[static_cast<std::size_t>(i)].cluster)].plane;
+  for (int h : s->hits) {
+    const int k = s->e2_pair[static_cast<std::size_t>(h)].first, l = s->e2_pair[static_cast<std::size_t>(h)].second;
+    if (k == i || k == j || l == i || l == j) continue;
+    const Eigen::Vector3f& c = pool[static_cast<std::size_t>(k)].p;
+    const Eigen::Vector3f& d = pool[static_cast<std::size_t>(l)].p;
+    const Eigen::Vector3f cd = d - c;
+    const float cos_t = u.dot(cd) / cd.norm();
+    if (cos_t > rigid.cos_hi || cos_t < rigid.cos_lo) continue;  // rigid check on the angle (Sec. 4.2.2)
+    if (std::abs((c - a).norm() - rigid.ac) > rigid.cross_tol || std::abs((d - a).norm() - rigid.ad) > rigid.cross_tol ||
+        std::abs((c - b).norm() - rigid.bc) > rigid.cross_tol || std::abs((d - b).norm() - rigid.bd) > rigid.cross_tol)
+      continue;
+    if (std::abs(plane.head<3>().dot(c) + plane.w()) > cop || std::abs(plane.head<3>().dot(d) + plane.w()) > cop) continue;
+    const float err = std::abs(dist - base.len1) + std::abs(cd.norm() - base.len2) + (e1 - s->e2[static_cast<std::size_t>(h)]).norm();
+    const Candidate cand{{i, j, k, l}, Eigen::Isometry3d::Identity(), err};
+    s->cands.push_back(cand);
+    if (static_cast<int>(s->cands.size()) >= cfg.max_congruent_sets_per_base) return;
+  }
+}
+
+// Intermediate points of the first diagonal with r1; coincident e1/e2 + rigid check = congruent set. Pairs in length
+// order, both orientations, until max_congruent_sets_per_base.
+void congruent_sets_of_base(const DiagonalChecks& chk, const FourPcsConfig& cfg, BaseScratch* s) {
+  const PointTree e2_tree(s->e2);
+  s->cands.clear();
+  const auto r1 = chk.pairs_of_length(chk.base.len1);
+  const RigidCheck rigid(chk.base, chk.tol);
+  for (auto it = r1.first; it != r1.second && static_cast<int>(s->cands.size()) < cfg.max_congruent_sets_per_base; ++it) {
+    if (!chk.tilt_ok(it->i)) continue;
+    for (int orient = 0; orient < 2; ++orient) {
+      const int i = orient == 0 ? it->i : it->j, j = orient == 0 ? it->j : it->i;
+      congruent_sets_on_pair(i, j, it->dist, chk, rigid, e2_tree, cfg, s);
+      if (static_cast<int>(s->cands.size()) >= cfg.max_congruent_sets_per_base) break;
+    }
+  }
+}
+
+// Best-congruent first, then near-duplicate poses dropped, then the cap (all deterministic). The transform (step 3:
+// closed form on the 4 correspondences) is computed only for the candidates visited here.
+void keep_distinct_poses(const Base& base, const std::vector<PoolPoint>& pool, const SearchTolerances& tol, const FourPcsConfig& cfg,
+                         std::vector<Candidate>* cands, std::unordered_set<std::int64_t>* seen_cells) {
+  std::stable_sort(cands->begin(), cands->end(), [](const Candidate& x, const Candidate& y) { return x.error < y.error; });
+  Eigen::Matrix3Xd src(3, 4), dst(3, 4);
+  for (int x = 0; x < 4; ++x) src.col(x) = base.p[x].cast<double>();
+  std::size_t w = 0;
+  for (std::size_t ci = 0; ci < cands->size() && static_cast<int>(w) < cfg.max_scored_per_base; ++ci) {
+    Candidate& cand = (*cands)[ci];
+    for (int x = 0; x < 4; ++x) dst.col(x) = pool[static_cast<std::size_t>(cand.q[x])].p.cast<double>();
+    cand.T = rigid_from_correspondences(src, dst);
+    if (cand.T.linear().col(2).z() < tol.cos_max_tilt) continue;  // the up axis stays up (ground vehicles)
+    if (seen_cells->insert(pose_cell(cand.T, tol.rot_step, tol.trans_step)).second) (*cands)[w++] = cand;
+  }
+  cands->resize(w);
+}
+
+// Congruent sets kept over all bases tried, with their prescores.
+struct CongruentSets {
+  std::vector<Candidate> all;
+  std::vector<int> pre;  // prescore per candidate
+  int best_pre = 0;
+  std::unordered_set<std::int64_t> seen_cells;  // pose cells already kept
+};
+
+// Prescore (LCP on the first sample points, Sec. 4.2.3 a) of a base's candidates right away, so that a base giving a
+// clear winner ends the search.
+void prescore(const std::vector<Candidate>& cands, const LcpScoring& lcp, const FourPcsConfig& cfg, CongruentSets* sets) {
+  std::vector<Candidate>& all = sets->all;
+  std::vector<int>& pre = sets->pre;
+  const std::size_t first = all.size();
+  all.insert(all.end(), cands.begin(), cands.end());
+  pre.resize(all.size(), 0);
+  const int n_new = static_cast<int>(cands.size());
+#pragma omp parallel for num_threads(cfg.num_threads) schedule(dynamic, 8)
+  for (int ci = 0; ci < n_new; ++ci)
+    pre[first + static_cast<std::size_t>(ci)] =
+        lcp_count(all[first + static_cast<std::size_t>(ci)].T, lcp.sample, 0, lcp.prescreen_n, 0, lcp.target_tree, lcp.delta_sq, 0);
+  for (std::size_t ci = first; ci < all.size(); ++ci) sets->best_pre = std::max(sets->best_pre, pre[ci]);
+}
+
+// Steps 2-3 for the bases in rank order: congruent sets, one transform each, prescored; no further bases once a
+// prescore fraction reaches early_stop_prescore.
+CongruentSets collect_congruent_sets(const std::vector<Base>& bases, const TargetPairs& target, const LcpScoring& lcp,
+                                     const SearchTolerances& tol, const FourPcsConfig& cfg, int* bases_tried) {
+  CongruentSets sets;
+  BaseScratch scratch;
+  for (const Base& base : bases) {
+    ++*bases_tried;
+    const DiagonalChecks chk(base, target, tol);
+    second_diagonal_points(chk, &scratch);
+    if (scratch.e2.empty()) continue;
+    congruent_sets_of_base(chk, cfg, &scratch);
+    keep_distinct_poses(base, target.pool, tol, cfg, &scratch.cands, &sets.seen_cells);
+    prescore(scratch.cands, lcp, cfg, &sets);
+    if (sets.best_pre >= cfg.early_stop_prescore * lcp.prescreen_n) break;
+  }
+  return sets;
+}
+
+// ---- Step 4 (Sec. 4.2.3 b, c): full LCP and refinement ----
+
+// The full LCP of the best prescored candidates and the leaders among them.
+struct FullScores {
+  std::vector<int> order;    // candidate indices, highest prescore first, at most max_full_scores
+  std::vector<int> full;     // full LCP per entry of order; -1: terminated early
+  std::vector<int> leaders;  // entries of order, highest full LCP first, at most refine_candidates
+};
+
+// Candidate indices by prescore (stable: ties keep candidate order), at most max_full_scores.
+std::vector<int> best_prescored(const CongruentSets& sets, const FourPcsConfig& cfg) {
+  const std::vector<int>& pre = sets.pre;
+  const int n_all = static_cast<int>(sets.all.size());
+  std::vector<int> order(sets.all.size());
+  for (int ci = 0; ci < n_all; ++ci) order[static_cast<std::size_t>(ci)] = ci;
+  std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return pre[static_cast<std::size_t>(x)] > pre[static_cast<std::size_t>(y)]; });
+  order.resize(std::min(order.size(), static_cast<std::size_t>(cfg.max_full_scores)));
+  return order;
+}
+
+// Full LCP in blocks of kScoreBlock, each with early termination against the best count fixed before the block.
+FullScores full_lcp_scores(const CongruentSets& sets, const LcpScoring& lcp, const FourPcsConfig& cfg) {
+  FullScores s;
+  s.order = best_prescored(sets, cfg);
+  const std::vector<int>& order = s.order;
+  std::vector<int>& full = s.full;
+  full.assign(order.size(), -1);
+  int best_count = 0;
+  for (std::size_t b0 = 0; b0 < order.size(); b0 += kScoreBlock) {
+    const std::size_t b1 = std::min(order.size(), b0 + kScoreBlock);
+    const int must_reach = best_count;
+#pragma omp parallel for num_threads(cfg.num_threads) schedule(dynamic, 1)
+    for (std::ptrdiff_t oi = static_cast<std::ptrdiff_t>(b0); oi < static_cast<std::ptrdiff_t>(b1); ++oi) {
+      const int ci = order[static_cast<std::size_t>(oi)];
+      full[static_cast<std::size_t>(oi)] = lcp_count(sets.all[static_cast<std::size_t>(ci)].T, lcp.sample, lcp.prescreen_n, lcp.n_sample,
+                                                     sets.pre[static_cast<std::size_t>(ci)], lcp.target_tree, lcp.delta_sq, must_reach);
+    }
+    for (std::size_t oi = b0; oi < b1; ++oi) best_count = std::max(best_count, full[oi]);
+  }
+  for (std::size_t oi = 0; oi < order.size(); ++oi)
+    if (full[oi] >= 0) s.leaders.push_back(static_cast<int>(oi));
+  std::stable_sort(s.leaders.begin(), s.leaders.end(), [&](int x, int y) { return full[static_cast<std::size_t>(x)] > full[static_cast<std::size_t>(y)]; });
+  s.leaders.resize(std::min(s.leaders.size(), static_cast<std::size_t>(std::max(1, cfg.refine_candidates))));
+  return s;
+}
+
+// Closest-point refinement of a pose: refine_iterations rigid fits to the nearest target points within delta of the
+// refinement sample; stops when fewer than 8 points correspond.
+Eigen::Isometry3d closest_point_refinement(const Eigen::Isometry3d& T_start, const LcpScoring& lcp, const FourPcsConfig& cfg) {
+  Eigen::Isometry3d T = T_start;
+  for (int it = 0; it < cfg.refine_iterations; ++it) {
+    std::vector<Eigen::Vector3d> s_in, t_in;
+    for (const auto& p : lcp.refine_sample) {
+      const Eigen::Vector3f q = (T * p.cast<double>()).cast<float>();
+      const int idx = lcp.target_tree.nearest_within(q, lcp.delta_sq);
+      if (idx >= 0) {
+        s_in.push_back(p.cast<double>());
+        t_in.push_back(lcp.target_points[static_cast<std::size_t>(idx)].cast<double>());
+      }
+    }
+    if (s_in.size() < 8) break;
+    Eigen::Matrix3Xd S(3, static_cast<Eigen::Index>(s_in.size())), D(3, static_cast<Eigen::Index>(t_in.size()));
+    for (std::size_t k = 0; k < s_in.size(); ++k) {
+      S.col(static_cast<Eigen::Index>(k)) = s_in[k];
+      D.col(static_cast<Eigen::Index>(k)) = t_in[k];
+    }
+    T = rigid_from_correspondences(S, D);
+  }
+  return T;
+}
+
+struct ScoredPose {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  int count = 0;  // LCP count on the sample
+};
+
+// Closest-point refinement on LCP inliers; a refined pose replaces the raw one only if its LCP is not lower. The
+// highest LCP wins (ties: the first leader).
+ScoredPose refine_leaders(const CongruentSets& sets, const FullScores& s, const LcpScoring& lcp, const FourPcsConfig& cfg) {
+  std::vector<Eigen::Isometry3d> refined_T(s.leaders.size());
+  std::vector<int> refined_count(s.leaders.size(), 0);
+#pragma omp parallel for num_threads(cfg.num_threads) schedule(dynamic, 1)
+  for (int li = 0; li < static_cast<int>(s.leaders.size()); ++li) {
+    const std::size_t oi = static_cast<std::size_t>(s.leaders[static_cast<std::size_t>(li)]);
+    const Eigen::Isometry3d& T_raw = sets.all[static_cast<std::size_t>(s.order[oi])].T;
+    const Eigen::Isometry3d T = closest_point_refinement(T_raw, lcp, cfg);
+    const int c = lcp_count(T, lcp.sample, 0, lcp.n_sample, 0, lcp.target_tree, lcp.delta_sq, 0);
+    const bool better = c >= s.full[oi];
+    refined_T[static_cast<std::size_t>(li)] = better ? T : T_raw;
+    refined_count[static_cast<std::size_t>(li)] = better ? c : s.full[oi];
+  }
+  ScoredPose best;
+  best.T = refined_T[0];
+  best.count = refined_count[0];
+  for (std::size_t li = 1; li < s.leaders.size(); ++li)
+    if (refined_count[li] > best.count) {
+      best.count = refined_count[li];
+      best.T = refined_T[li];
+    }
+  return best;
+}
+
 }  // namespace
 
 std::optional<std::string> FourPcsConfig::validate() const {
@@ -357,259 +781,31 @@ FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, 
   const std::vector<Base> bases = select_bases(source_seg, cfg);
   if (bases.empty()) return fail("no coplanar base: planar hulls too narrow or collinear (min_base_width)");
 
-  // Target points that may form congruent sets: hulls (and downsampled members) of planar clusters (Sec. 4.2.2).
-  std::vector<PoolPoint> pool;
-  for (int ci = 0; ci < static_cast<int>(target_seg.clusters.size()); ++ci) {
-    const auto& cl = target_seg.clusters[static_cast<std::size_t>(ci)];
-    if (!cl.planar) continue;
-    for (const auto& p : cl.hull) pool.push_back({p, ci});
-    if (cfg.use_cluster_points)
-      for (const auto& p : cl.points) pool.push_back({p, ci});
-  }
-  // Pairs of pool points lying in one physical plane (same cluster, or clusters of the same plane), sorted by length.
-  const float cop = static_cast<float>(cfg.coplanar_tolerance);
-  const float min_len = static_cast<float>(cfg.min_base_width - cfg.pair_distance_tolerance);
-  const float cos_same_plane = static_cast<float>(std::cos(deg2rad(15.0)));
-  // Only lengths some base diagonal can use are kept: a table over 0.1 m length bins.
-  constexpr float kLenBin = 0.1f;
-  std::vector<char> wanted;
-  for (const Base& b : bases)
-    for (float len : {b.len1, b.len2}) {
-      const int lo = std::max(0, static_cast<int>((len - static_cast<float>(cfg.pair_distance_tolerance)) / kLenBin) - 1);
-      const int hi = static_cast<int>((len + static_cast<float>(cfg.pair_distance_tolerance)) / kLenBin) + 1;
-      if (static_cast<int>(wanted.size()) <= hi) wanted.resize(static_cast<std::size_t>(hi + 1), 0);
-      for (int k = lo; k <= hi; ++k) wanted[static_cast<std::size_t>(k)] = 1;
-    }
-  const float max_len = static_cast<float>(wanted.size()) * kLenBin;
-  std::vector<Pair> pairs;
-  for (int i = 0; i < static_cast<int>(pool.size()); ++i) {
-    const auto& pi = pool[static_cast<std::size_t>(i)];
-    const Eigen::Vector4f& Pi = target_seg.clusters[static_cast<std::size_t>(pi.cluster)].plane;
-    for (int j = i + 1; j < static_cast<int>(pool.size()); ++j) {
-      const auto& pj = pool[static_cast<std::size_t>(j)];
-      const float d2 = (pi.p - pj.p).squaredNorm();
-      if (d2 < min_len * min_len || d2 >= max_len * max_len) continue;
-      const float d = std::sqrt(d2);
-      if (!wanted[static_cast<std::size_t>(d / kLenBin)]) continue;
-      if (pj.cluster != pi.cluster) {
-        const Eigen::Vector4f& Pj = target_seg.clusters[static_cast<std::size_t>(pj.cluster)].plane;
-        if (std::abs(Pi.head<3>().dot(Pj.head<3>())) < cos_same_plane) continue;
-        if (std::abs(Pi.head<3>().dot(pj.p) + Pi.w()) > cop || std::abs(Pj.head<3>().dot(pi.p) + Pj.w()) > cop) continue;
-      }
-      pairs.push_back({i, j, d});
-    }
-  }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.dist < b.dist || (a.dist == b.dist && (a.i < b.i || (a.i == b.i && a.j < b.j))); });
-  if (pairs.empty()) return fail("no pair of target plane points as long as a base diagonal");
+  // Target points that may form congruent sets and the pairs among them a base diagonal can use (Sec. 4.2.2).
+  TargetPairs target{target_seg, target_pool(target_seg, cfg), {}};
+  target.pairs = coplanar_pairs(target.pool, target_seg, wanted_lengths(bases, cfg), cfg);
+  if (target.pairs.empty()) return fail("no pair of target plane points as long as a base diagonal");
 
   // LCP scoring data (Sec. 4.2.3).
-  const std::vector<Eigen::Vector3f> sample = lcp_sample(source_points, source_seg, cfg);
-  // The refinement keeps the ground: it is what pins height, roll and pitch.
-  FourPcsConfig refine_cfg = cfg;
-  refine_cfg.lcp_exclude_ground = false;
-  const std::vector<Eigen::Vector3f> refine_sample = lcp_sample(source_points, source_seg, refine_cfg);
-  const PointTree target_tree(target_points);
-  const float delta_sq = static_cast<float>(cfg.delta * cfg.delta);
-  const int n_sample = static_cast<int>(sample.size());
-  const int prescreen_n = std::min(cfg.prescreen_points, n_sample);
-  const double max_tilt = deg2rad(cfg.max_tilt_deg);
-  const double cos_max_tilt = std::cos(max_tilt);
-  const float cos_angle_tol = static_cast<float>(deg2rad(cfg.max_angle_deviation_deg));
-  const float pair_tol = static_cast<float>(cfg.pair_distance_tolerance);
-  const float e_tol = static_cast<float>(cfg.intermediate_tolerance);
+  const LcpScoring lcp(source_points, source_seg, target_points, cfg);
 
-  std::vector<Candidate> all;
-  std::vector<int> pre;  // prescore per candidate
-  int best_pre = 0;
-  std::vector<Eigen::Vector3f> e2;
-  std::vector<std::pair<int, int>> e2_pair;
-  std::vector<int> hits;
-  std::vector<Candidate> cands;
-  std::unordered_set<std::int64_t> seen_cells;
-  const double rot_step = deg2rad(cfg.dedupe_rotation_deg), trans_step = cfg.dedupe_translation;
+  // 2.-3. Congruent sets per base and one rigid transform each, prescored as they come (Sec. 4.2.2, 4.2.3 a).
+  const SearchTolerances tol = search_tolerances(cfg);
+  const CongruentSets sets = collect_congruent_sets(bases, target, lcp, tol, cfg, &res.bases_tried);
+  res.congruent_sets = static_cast<int>(sets.all.size());
+  if (sets.all.empty()) return fail("no congruent set found for any of " + std::to_string(res.bases_tried) + " bases");
 
-  for (const Base& base : bases) {
-    ++res.bases_tried;
-    // Pairs as long as each diagonal, on target planes whose tilt matches the base's.
-    auto pair_range = [&](float len) {
-      const auto lo = std::lower_bound(pairs.begin(), pairs.end(), len - pair_tol, [](const Pair& p, float v) { return p.dist < v; });
-      const auto hi = std::upper_bound(pairs.begin(), pairs.end(), len + pair_tol, [](float v, const Pair& p) { return v < p.dist; });
-      return std::make_pair(lo, hi);
-    };
-    auto tilt_ok = [&](int pool_index) {
-      const auto& cl = target_seg.clusters[static_cast<std::size_t>(pool[static_cast<std::size_t>(pool_index)].cluster)];
-      return std::abs(plane_tilt(cl.plane) - base.tilt) <= max_tilt;
-    };
-    // Up-axis check at pair level: a diagonal's height change can differ from the base's only by the allowed tilt.
-    const float dz1 = base.p[1].z() - base.p[0].z(), dz2 = base.p[3].z() - base.p[2].z();
-    const float sin_tilt = static_cast<float>(std::sin(std::min(max_tilt, kPi / 2)));
-    auto dz_ok = [&](const Eigen::Vector3f& a, const Eigen::Vector3f& b, float dz_base, float len) {
-      return std::abs((b.z() - a.z()) - dz_base) <= 2.f * sin_tilt * len + pair_tol;
-    };
-    // Intermediate points of the second diagonal, Eq. (2) with r2, both orientations of each pair.
-    e2.clear();
-    e2_pair.clear();
-    const auto r2 = pair_range(base.len2);
-    for (auto it = r2.first; it != r2.second; ++it) {
-      if (!tilt_ok(it->i)) continue;
-      const Eigen::Vector3f& a = pool[static_cast<std::size_t>(it->i)].p;
-      const Eigen::Vector3f& b = pool[static_cast<std::size_t>(it->j)].p;
-      if (dz_ok(a, b, dz2, base.len2)) {
-        e2.push_back(a + base.r2 * (b - a));
-        e2_pair.emplace_back(it->i, it->j);
-      }
-      if (dz_ok(b, a, dz2, base.len2)) {
-        e2.push_back(b + base.r2 * (a - b));
-        e2_pair.emplace_back(it->j, it->i);
-      }
-    }
-    if (e2.empty()) continue;
-    const PointTree e2_tree(e2);
-    // Intermediate points of the first diagonal with r1; coincident e1/e2 + rigid check = congruent set.
-    cands.clear();
-    const auto r1 = pair_range(base.len1);
-    const double base_angle = std::acos(std::max(-1.f, std::min(1.f, base.cos_angle)));
-    const float cos_hi = static_cast<float>(std::cos(std::max(0.0, base_angle - cos_angle_tol)));
-    const float cos_lo = static_cast<float>(std::cos(std::min(kPi, base_angle + cos_angle_tol)));
-    // Cross distances of the base: with the angle they make the rigid check exact for 4 points.
-    const float ac = (base.p[2] - base.p[0]).norm(), ad = (base.p[3] - base.p[0]).norm();
-    const float bc = (base.p[2] - base.p[1]).norm(), bd = (base.p[3] - base.p[1]).norm();
-    const float cross_tol = 2.f * pair_tol;
-    Eigen::Matrix3Xd src(3, 4), dst(3, 4);
-    for (int x = 0; x < 4; ++x) src.col(x) = base.p[x].cast<double>();
-    for (auto it = r1.first; it != r1.second && static_cast<int>(cands.size()) < cfg.max_congruent_sets_per_base; ++it) {
-      if (!tilt_ok(it->i)) continue;
-      for (int orient = 0; orient < 2; ++orient) {
-        const int i = orient == 0 ? it->i : it->j, j = orient == 0 ? it->j : it->i;
-        const Eigen::Vector3f& a = pool[static_cast<std::size_t>(i)].p;
-        const Eigen::Vector3f& b = pool[static_cast<std::size_t>(j)].p;
-        if (!dz_ok(a, b, dz1, base.len1)) continue;
-        const Eigen::Vector3f e1 = a + base.r1 * (b - a);
-        hits.clear();
-        e2_tree.radius(e1, e_tol * e_tol, &hits);
-        std::sort(hits.begin(), hits.end());
-        const Eigen::Vector3f u = (b - a) / it->dist;
-        const Eigen::Vector4f& plane = target_seg.clusters[static_cast<std::size_t>(pool[static_cast<std::size_t>(i)].cluster)].plane;
-        for (int h : hits) {
-          const int k = e2_pair[static_cast<std::size_t>(h)].first, l = e2_pair[static_cast<std::size_t>(h)].second;
-          if (k == i || k == j || l == i || l == j) continue;
-          const Eigen::Vector3f& c = pool[static_cast<std::size_t>(k)].p;
-          const Eigen::Vector3f& d = pool[static_cast<std::size_t>(l)].p;
-          const Eigen::Vector3f cd = d - c;
-          const float cos_t = u.dot(cd) / cd.norm();
-          if (cos_t > cos_hi || cos_t < cos_lo) continue;  // rigid check on the angle (Sec. 4.2.2)
-          if (std::abs((c - a).norm() - ac) > cross_tol || std::abs((d - a).norm() - ad) > cross_tol || std::abs((c - b).norm() - bc) > cross_tol ||
-              std::abs((d - b).norm() - bd) > cross_tol)
-            continue;
-          if (std::abs(plane.head<3>().dot(c) + plane.w()) > cop || std::abs(plane.head<3>().dot(d) + plane.w()) > cop) continue;
-          const float err = std::abs(it->dist - base.len1) + std::abs(cd.norm() - base.len2) + (e1 - e2[static_cast<std::size_t>(h)]).norm();
-          const Candidate cand{{i, j, k, l}, Eigen::Isometry3d::Identity(), err};
-          cands.push_back(cand);
-          if (static_cast<int>(cands.size()) >= cfg.max_congruent_sets_per_base) break;
-        }
-        if (static_cast<int>(cands.size()) >= cfg.max_congruent_sets_per_base) break;
-      }
-    }
-    // Best-congruent first, then near-duplicate poses dropped, then the cap (all deterministic).
-    // The transform (closed form on the 4 correspondences) is computed only for the candidates visited here.
-    std::stable_sort(cands.begin(), cands.end(), [](const Candidate& x, const Candidate& y) { return x.error < y.error; });
-    {
-      std::size_t w = 0;
-      for (std::size_t ci = 0; ci < cands.size() && static_cast<int>(w) < cfg.max_scored_per_base; ++ci) {
-        Candidate& cand = cands[ci];
-        for (int x = 0; x < 4; ++x) dst.col(x) = pool[static_cast<std::size_t>(cand.q[x])].p.cast<double>();
-        cand.T = rigid_from_correspondences(src, dst);
-        if (cand.T.linear().col(2).z() < cos_max_tilt) continue;  // the up axis stays up (ground vehicles)
-        if (seen_cells.insert(pose_cell(cand.T, rot_step, trans_step)).second) cands[w++] = cand;
-      }
-      cands.resize(w);
-    }
-
-    // Prescore (LCP on the first sample points) right away, so that a base giving a clear winner ends the search.
-    const std::size_t first = all.size();
-    all.insert(all.end(), cands.begin(), cands.end());
-    pre.resize(all.size(), 0);
-    const int n_new = static_cast<int>(cands.size());
-#pragma omp parallel for num_threads(cfg.num_threads) schedule(dynamic, 8)
-    for (int ci = 0; ci < n_new; ++ci)
-      pre[first + static_cast<std::size_t>(ci)] = lcp_count(all[first + static_cast<std::size_t>(ci)].T, sample, 0, prescreen_n, 0, target_tree, delta_sq, 0);
-    for (std::size_t ci = first; ci < all.size(); ++ci) best_pre = std::max(best_pre, pre[ci]);
-    if (best_pre >= cfg.early_stop_prescore * prescreen_n) break;
-  }
-  res.congruent_sets = static_cast<int>(all.size());
-  if (all.empty()) return fail("no congruent set found for any of " + std::to_string(res.bases_tried) + " bases");
-
-  // LCP of every congruent set's transform (Sec. 4.2.3), in three deterministic steps (the same on any number of
+  // 4. LCP of every congruent set's transform (Sec. 4.2.3), in three deterministic steps (the same on any number of
   // threads, as each candidate's score depends only on the candidate and on bests fixed before its block):
   //  a) a prescore on the first points of the scrambled sample (done per base above),
   //  b) the full LCP of the best prescored ones, with early termination against the best so far,
   //  c) a closest-point refinement of the leaders; the highest LCP wins (ties: lowest index).
-  const int n_all = static_cast<int>(all.size());
-  std::vector<int> order(all.size());
-  for (int ci = 0; ci < n_all; ++ci) order[static_cast<std::size_t>(ci)] = ci;
-  std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return pre[static_cast<std::size_t>(x)] > pre[static_cast<std::size_t>(y)]; });
-  order.resize(std::min(order.size(), static_cast<std::size_t>(cfg.max_full_scores)));
-
-  std::vector<int> full(order.size(), -1);
-  int best_count = 0;
-  for (std::size_t b0 = 0; b0 < order.size(); b0 += kScoreBlock) {
-    const std::size_t b1 = std::min(order.size(), b0 + kScoreBlock);
-    const int must_reach = best_count;
-#pragma omp parallel for num_threads(cfg.num_threads) schedule(dynamic, 1)
-    for (std::ptrdiff_t oi = static_cast<std::ptrdiff_t>(b0); oi < static_cast<std::ptrdiff_t>(b1); ++oi) {
-      const int ci = order[static_cast<std::size_t>(oi)];
-      full[static_cast<std::size_t>(oi)] =
-          lcp_count(all[static_cast<std::size_t>(ci)].T, sample, prescreen_n, n_sample, pre[static_cast<std::size_t>(ci)], target_tree, delta_sq, must_reach);
-    }
-    for (std::size_t oi = b0; oi < b1; ++oi) best_count = std::max(best_count, full[oi]);
-  }
-  std::vector<int> leaders;
-  for (std::size_t oi = 0; oi < order.size(); ++oi)
-    if (full[oi] >= 0) leaders.push_back(static_cast<int>(oi));
-  std::stable_sort(leaders.begin(), leaders.end(), [&](int x, int y) { return full[static_cast<std::size_t>(x)] > full[static_cast<std::size_t>(y)]; });
-  leaders.resize(std::min(leaders.size(), static_cast<std::size_t>(std::max(1, cfg.refine_candidates))));
-
-  // Closest-point refinement on LCP inliers; a refined pose replaces the raw one only if its LCP is not lower.
-  std::vector<Eigen::Isometry3d> refined_T(leaders.size());
-  std::vector<int> refined_count(leaders.size(), 0);
-#pragma omp parallel for num_threads(cfg.num_threads) schedule(dynamic, 1)
-  for (int li = 0; li < static_cast<int>(leaders.size()); ++li) {
-    const std::size_t oi = static_cast<std::size_t>(leaders[static_cast<std::size_t>(li)]);
-    Eigen::Isometry3d T = all[static_cast<std::size_t>(order[oi])].T;
-    for (int it = 0; it < cfg.refine_iterations; ++it) {
-      std::vector<Eigen::Vector3d> s_in, t_in;
-      for (const auto& p : refine_sample) {
-        const Eigen::Vector3f q = (T * p.cast<double>()).cast<float>();
-        const int idx = target_tree.nearest_within(q, delta_sq);
-        if (idx >= 0) {
-          s_in.push_back(p.cast<double>());
-          t_in.push_back(target_points[static_cast<std::size_t>(idx)].cast<double>());
-        }
-      }
-      if (s_in.size() < 8) break;
-      Eigen::Matrix3Xd S(3, static_cast<Eigen::Index>(s_in.size())), D(3, static_cast<Eigen::Index>(t_in.size()));
-      for (std::size_t k = 0; k < s_in.size(); ++k) {
-        S.col(static_cast<Eigen::Index>(k)) = s_in[k];
-        D.col(static_cast<Eigen::Index>(k)) = t_in[k];
-      }
-      T = rigid_from_correspondences(S, D);
-    }
-    const int c = lcp_count(T, sample, 0, n_sample, 0, target_tree, delta_sq, 0);
-    const bool better = c >= full[oi];
-    refined_T[static_cast<std::size_t>(li)] = better ? T : all[static_cast<std::size_t>(order[oi])].T;
-    refined_count[static_cast<std::size_t>(li)] = better ? c : full[oi];
-  }
-  Eigen::Isometry3d best_T = refined_T[0];
-  best_count = refined_count[0];
-  for (std::size_t li = 1; li < leaders.size(); ++li)
-    if (refined_count[li] > best_count) {
-      best_count = refined_count[li];
-      best_T = refined_T[li];
-    }
+  const FullScores scores = full_lcp_scores(sets, lcp, cfg);
+  const ScoredPose best = refine_leaders(sets, scores, lcp, cfg);
   res.success = true;
-  res.T_target_source = best_T;
-  res.lcp_points = n_sample;
-  res.lcp_fraction = n_sample > 0 ? static_cast<double>(best_count) / n_sample : 0.0;
+  res.T_target_source = best.T;
+  res.lcp_points = lcp.n_sample;
+  res.lcp_fraction = lcp.n_sample > 0 ? static_cast<double>(best.count) / lcp.n_sample : 0.0;
   res.ms = sw.ms();
   return res;
 }

@@ -150,6 +150,148 @@ Eigen::Isometry3d exp_update(const Vector6d& delta) {
   return D;
 }
 
+/// The reason align_gicp refuses its inputs before any work (config, initial transform, normals' sizes).
+std::optional<std::string> input_error(const std::vector<Eigen::Vector3f>& source_in, const std::vector<Eigen::Vector3f>& source_normals_in,
+                                       const std::vector<Eigen::Vector3f>& target_in, const std::vector<Eigen::Vector3f>& target_normals_in,
+                                       const Eigen::Isometry3d& init_T_target_source, const GicpConfig& config) {
+  if (auto err = config.validate()) return err;
+  if (!init_T_target_source.matrix().allFinite()) return "initial transform is not finite";
+  if ((!source_normals_in.empty() && source_normals_in.size() != source_in.size()) ||
+      (!target_normals_in.empty() && target_normals_in.size() != target_in.size()))
+    return "normals must be empty or sized like their points";
+  return std::nullopt;
+}
+
+std::string too_few_points(std::size_t source_size, std::size_t target_size) {
+  std::ostringstream os;
+  os << "too few finite points (source " << source_size << ", target " << target_size << ", need " << kMinPoints << ")";
+  return os.str();
+}
+
+/// The source points the iterations use, with their normals (empty: to be estimated).
+struct SourceSample {
+  std::vector<Eigen::Vector3f> points;
+  std::vector<Eigen::Vector3f> normals;
+};
+
+/// Optional deterministic stride subsample of the source: fewer correspondences per iteration; the normals of the
+/// kept points still come from their neighbours in the full source.
+SourceSample stride_subsample(const std::vector<Eigen::Vector3f>& source, const std::vector<Eigen::Vector3f>& source_normals, int max_source_points) {
+  SourceSample used{source, source_normals};
+  if (max_source_points > 0 && source.size() > static_cast<std::size_t>(max_source_points)) {
+    const double stride = static_cast<double>(source.size()) / max_source_points;
+    used.points.clear();
+    used.normals.clear();
+    for (int k = 0; k < max_source_points; ++k) {
+      const auto i = static_cast<std::size_t>(k * stride);
+      used.points.push_back(source[i]);
+      if (!source_normals.empty()) used.normals.push_back(source_normals[i]);
+    }
+  }
+  return used;
+}
+
+/// Ren 2019, Eq. (3) for the source sample: from its given normals, or from normals estimated on its neighbours in
+/// the full source.
+std::vector<Eigen::Matrix3d> source_covariances(const std::vector<Eigen::Vector3f>& source, const SourceSample& used, const GicpConfig& config) {
+  if (!used.normals.empty()) return covariances_from_normals(used.normals, config.epsilon);
+  const KdTree3f source_tree(source);
+  return covariances_from_normals(estimate_normals(used.points, source, source_tree, config.k_neighbors, config.num_threads), config.epsilon);
+}
+
+/// Ren 2019, Eq. (3) for the target: from its given normals, or from normals estimated on its neighbours.
+std::vector<Eigen::Matrix3d> target_covariances(const std::vector<Eigen::Vector3f>& target, const std::vector<Eigen::Vector3f>& target_normals,
+                                                const KdTree3f& target_tree, const GicpConfig& config) {
+  if (!target_normals.empty()) return covariances_from_normals(target_normals, config.epsilon);
+  return covariances_from_normals(estimate_normals(target, target, target_tree, config.k_neighbors, config.num_threads), config.epsilon);
+}
+
+/// What every linearisation reads: the source sample and the target, their covariances and the target tree.
+struct GicpClouds {
+  const std::vector<Eigen::Vector3f>& source;
+  const std::vector<Eigen::Matrix3d>& source_covs;
+  const std::vector<Eigen::Vector3f>& target;
+  const std::vector<Eigen::Matrix3d>& target_covs;
+  const KdTree3f& target_tree;
+};
+
+/// Damped Gauss-Newton step: solves (H + damping * max(diag H) I) delta = -b.
+Vector6d gauss_newton_step(const Linearization& L, double damping) {
+  Matrix6d A = L.H;
+  A.diagonal().array() += damping * std::max(1e-12, L.H.diagonal().maxCoeff());
+  return A.ldlt().solve(-L.b);
+}
+
+/// T <- T * Exp(delta), right perturbation.
+void apply_update(const Vector6d& delta, Eigen::Isometry3d* T) {
+  *T = *T * exp_update(delta);
+  // Keep the rotation orthonormal over many small updates.
+  const Eigen::Quaterniond q(T->linear());
+  T->linear() = q.normalized().toRotationMatrix();
+}
+
+/// Where the correspondence-distance schedule ended.
+struct ScheduleOutcome {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  bool last_stage_converged = false;
+  bool numeric_failure = false;
+};
+
+/// Gauss-Newton from init, one stage per entry of the correspondence-distance schedule; counts the iterations.
+ScheduleOutcome run_schedule(const GicpClouds& c, const Eigen::Isometry3d& init, const GicpConfig& config, int* iterations) {
+  ScheduleOutcome out;
+  out.T = init;
+  for (std::size_t stage = 0; stage < config.max_correspondence_distances.size() && !out.numeric_failure; ++stage) {
+    const double max_distance = config.max_correspondence_distances[stage];
+    const bool final_stage = stage + 1 == config.max_correspondence_distances.size();
+    // Coarse stages only need to hand a good start to the next one: 10x looser step criterion.
+    const double loosen = final_stage ? 1.0 : 10.0;
+    out.last_stage_converged = false;
+    for (int it = 0; it < config.max_iterations; ++it) {
+      const Linearization L = linearize(c.source, c.source_covs, c.target, c.target_covs, c.target_tree, out.T, max_distance, config.num_threads);
+      ++*iterations;
+      if (L.inliers < 6) break;  // nothing to pull on at this distance; the next stage (or the final check) decides
+      const Vector6d delta = gauss_newton_step(L, config.damping);
+      if (!delta.allFinite()) {
+        out.numeric_failure = true;
+        break;
+      }
+      apply_update(delta, &out.T);
+      if (delta.head<3>().norm() < loosen * config.convergence_rotation && delta.tail<3>().norm() < loosen * config.convergence_translation) {
+        out.last_stage_converged = true;
+        break;
+      }
+    }
+  }
+  return out;
+}
+
+/// Final evaluation at the final transform: residual, fitness and the Hessian used as loop-edge information.
+void evaluate_final(const GicpClouds& c, const Eigen::Isometry3d& T, const GicpConfig& config, GicpResult* result) {
+  const double final_distance = config.max_correspondence_distances.back();
+  const Linearization F = linearize(c.source, c.source_covs, c.target, c.target_covs, c.target_tree, T, final_distance, config.num_threads);
+  result->T_target_source = T;
+  result->H = F.H;
+  result->cost = F.cost;
+  result->num_inliers = F.inliers;
+  result->fitness = static_cast<double>(F.inliers) / static_cast<double>(c.source.size());
+  result->residual = F.inliers > 0 ? F.sum_distance / F.inliers : -1.0;
+  result->degeneracy = F.inliers > 0 ? gicp_degeneracy(F.H, &result->weakest_direction) : -1.0;
+}
+
+/// Why the result is not converged; empty when it is.
+std::string failure_reason(const ScheduleOutcome& schedule, double fitness, const GicpConfig& config) {
+  std::ostringstream why;
+  if (schedule.numeric_failure) {
+    why << "numerical failure (non-finite update)";
+  } else if (!schedule.last_stage_converged) {
+    why << "no convergence within " << config.max_iterations << " iterations in the last stage";
+  } else if (fitness < config.min_fitness) {
+    why << "stalled at low fitness " << fitness << " < " << config.min_fitness;
+  }
+  return why.str();
+}
+
 }  // namespace
 
 std::optional<std::string> GicpConfig::validate() const {
@@ -210,104 +352,31 @@ GicpResult align_gicp(const std::vector<Eigen::Vector3f>& source_in, const std::
   Stopwatch sw;
   GicpResult result;
   result.T_target_source = init_T_target_source;
-  if (auto err = config.validate()) {
+  if (auto err = input_error(source_in, source_normals_in, target_in, target_normals_in, init_T_target_source, config)) {
     result.reason = *err;
-    return result;
-  }
-  if (!init_T_target_source.matrix().allFinite()) {
-    result.reason = "initial transform is not finite";
-    return result;
-  }
-  if ((!source_normals_in.empty() && source_normals_in.size() != source_in.size()) ||
-      (!target_normals_in.empty() && target_normals_in.size() != target_in.size())) {
-    result.reason = "normals must be empty or sized like their points";
     return result;
   }
   std::vector<Eigen::Vector3f> source, target, source_normals, target_normals;
   finite_points(source_in, source_normals_in, &source, &source_normals);
   finite_points(target_in, target_normals_in, &target, &target_normals);
   if (static_cast<int>(source.size()) < kMinPoints || static_cast<int>(target.size()) < kMinPoints) {
-    std::ostringstream os;
-    os << "too few finite points (source " << source.size() << ", target " << target.size() << ", need " << kMinPoints << ")";
-    result.reason = os.str();
+    result.reason = too_few_points(source.size(), target.size());
     result.ms = sw.ms();
     return result;
   }
 
+  // Per-point covariances (Ren 2019, Eq. 3) of the source sample and of the target.
   const KdTree3f target_tree(target);
-  // Optional deterministic stride subsample of the source: fewer correspondences per iteration; the normals of the
-  // kept points still come from their neighbours in the full source.
-  std::vector<Eigen::Vector3f> source_used = source, source_used_normals = source_normals;
-  if (config.max_source_points > 0 && source.size() > static_cast<std::size_t>(config.max_source_points)) {
-    const double stride = static_cast<double>(source.size()) / config.max_source_points;
-    source_used.clear();
-    source_used_normals.clear();
-    for (int k = 0; k < config.max_source_points; ++k) {
-      const auto i = static_cast<std::size_t>(k * stride);
-      source_used.push_back(source[i]);
-      if (!source_normals.empty()) source_used_normals.push_back(source_normals[i]);
-    }
-  }
-  if (source_used_normals.empty()) {
-    const KdTree3f source_tree(source);
-    source_used_normals = estimate_normals(source_used, source, source_tree, config.k_neighbors, config.num_threads);
-  }
-  if (target_normals.empty()) target_normals = estimate_normals(target, target, target_tree, config.k_neighbors, config.num_threads);
-  const std::vector<Eigen::Matrix3d> source_covs = covariances_from_normals(source_used_normals, config.epsilon);
-  const std::vector<Eigen::Matrix3d> target_covs = covariances_from_normals(target_normals, config.epsilon);
+  const SourceSample used = stride_subsample(source, source_normals, config.max_source_points);
+  const std::vector<Eigen::Matrix3d> source_covs = source_covariances(source, used, config);
+  const std::vector<Eigen::Matrix3d> target_covs = target_covariances(target, target_normals, target_tree, config);
   result.ms_covariances = sw.ms();
 
-  Eigen::Isometry3d T = init_T_target_source;
-  bool last_stage_converged = false;
-  bool numeric_failure = false;
-  for (std::size_t stage = 0; stage < config.max_correspondence_distances.size() && !numeric_failure; ++stage) {
-    const double max_distance = config.max_correspondence_distances[stage];
-    const bool final_stage = stage + 1 == config.max_correspondence_distances.size();
-    // Coarse stages only need to hand a good start to the next one: 10x looser step criterion.
-    const double loosen = final_stage ? 1.0 : 10.0;
-    last_stage_converged = false;
-    for (int it = 0; it < config.max_iterations; ++it) {
-      const Linearization L = linearize(source_used, source_covs, target, target_covs, target_tree, T, max_distance, config.num_threads);
-      ++result.iterations;
-      if (L.inliers < 6) break;  // nothing to pull on at this distance; the next stage (or the final check) decides
-      Matrix6d A = L.H;
-      A.diagonal().array() += config.damping * std::max(1e-12, L.H.diagonal().maxCoeff());
-      const Vector6d delta = A.ldlt().solve(-L.b);
-      if (!delta.allFinite()) {
-        numeric_failure = true;
-        break;
-      }
-      T = T * exp_update(delta);
-      // Keep the rotation orthonormal over many small updates.
-      const Eigen::Quaterniond q(T.linear());
-      T.linear() = q.normalized().toRotationMatrix();
-      if (delta.head<3>().norm() < loosen * config.convergence_rotation && delta.tail<3>().norm() < loosen * config.convergence_translation) {
-        last_stage_converged = true;
-        break;
-      }
-    }
-  }
-
-  // Final evaluation at the final transform: residual, fitness and the Hessian used as loop-edge information.
-  const double final_distance = config.max_correspondence_distances.back();
-  const Linearization F = linearize(source_used, source_covs, target, target_covs, target_tree, T, final_distance, config.num_threads);
-  result.T_target_source = T;
-  result.H = F.H;
-  result.cost = F.cost;
-  result.num_inliers = F.inliers;
-  result.fitness = static_cast<double>(F.inliers) / static_cast<double>(source_used.size());
-  result.residual = F.inliers > 0 ? F.sum_distance / F.inliers : -1.0;
-  result.degeneracy = F.inliers > 0 ? gicp_degeneracy(F.H, &result.weakest_direction) : -1.0;
-
-  std::ostringstream why;
-  if (numeric_failure) {
-    why << "numerical failure (non-finite update)";
-  } else if (!last_stage_converged) {
-    why << "no convergence within " << config.max_iterations << " iterations in the last stage";
-  } else if (result.fitness < config.min_fitness) {
-    why << "stalled at low fitness " << result.fitness << " < " << config.min_fitness;
-  }
-  result.reason = why.str();
+  // Gauss-Newton on Eq. (6) over the distance schedule, then the final evaluation.
+  const GicpClouds clouds{used.points, source_covs, target, target_covs, target_tree};
+  const ScheduleOutcome schedule = run_schedule(clouds, init_T_target_source, config, &result.iterations);
+  evaluate_final(clouds, schedule.T, config, &result);
+  result.reason = failure_reason(schedule, result.fitness, config);
   result.converged = result.reason.empty();
   result.ms = sw.ms();
   return result;
