@@ -184,8 +184,9 @@ TEST_CASE("M2DP on real KITTI revisits: PCA frame vs gravity-aligned frame") {
   std::vector<PointCloud> scans(5);
   const std::string files[] = {f0, f15, f94, f95, f198};
   for (int i = 0; i < 5; ++i) {
-    std::string err;
-    REQUIRE(read_cloud_file(files[i], &scans[i], &err));
+    CloudFile read = read_cloud_file(files[i]);
+    REQUIRE(read.ok);
+    scans[i] = std::move(read.cloud);
   }
   for (M2dpFrame frame : {M2dpFrame::kPca, M2dpFrame::kGravityAligned}) {
     const M2dp m2dp(config_for(backend, frame));

@@ -55,10 +55,9 @@ TEST_CASE("M2DP max_points subsampling stays far below the revisit distance on r
   std::vector<std::vector<Eigen::Vector3f>> clouds;
   for (const char* f : frames) {
     LOOPD_REQUIRE_DATA(path, std::string("kitti/seq00/") + f + ".bin");
-    PointCloud c;
-    std::string err;
-    REQUIRE(read_cloud_file(path, &c, &err));
-    clouds.push_back(remove_non_finite(c).points);
+    const CloudFile read = read_cloud_file(path);
+    REQUIRE(read.ok);
+    clouds.push_back(remove_non_finite(read.cloud).points);
   }
   std::vector<float> max_err;
   measure(clouds, "KITTI", &max_err);
@@ -83,10 +82,9 @@ TEST_CASE("M2DP max_points subsampling stays far below the revisit distance on s
 
 TEST_CASE("M2DP max_points: the OpenCL backend bins the same strided points as the CPU reference", "[m2dp][subsample][opencl]") {
   LOOPD_REQUIRE_DATA(path, "kitti/seq00/000094.bin");
-  PointCloud c;
-  std::string err;
-  REQUIRE(read_cloud_file(path, &c, &err));
-  const std::vector<Eigen::Vector3f> points = remove_non_finite(c).points;
+  const CloudFile read = read_cloud_file(path);
+  REQUIRE(read.ok);
+  const std::vector<Eigen::Vector3f> points = remove_non_finite(read.cloud).points;
   M2dpConfig config;
   config.max_points = 30000;
   config.backend = Backend::kCpu;

@@ -76,8 +76,7 @@ void write_synthetic_kitti(const fs::path& root) {
     }
     char name[16];
     std::snprintf(name, sizeof(name), "%06d.bin", i);
-    std::string err;
-    REQUIRE(write_kitti_bin((root / "sequences/07/velodyne" / name).string(), c, &err));
+    REQUIRE_FALSE(write_kitti_bin((root / "sequences/07/velodyne" / name).string(), c));
   }
   std::ostringstream calib;
   calib << "P0: 7.2e+02 0 6.0e+02 0 0 7.2e+02 1.8e+02 0 0 0 1 0\n"
@@ -265,9 +264,9 @@ TEST_CASE("kitti2lcm on the real KITTI 00 scans (skips without ../shared/data)")
     CHECK(s.size() >= 115000);  // README: 121k-125k points per scan
     CHECK(s.size() <= 130000);
   }
-  PointCloud direct;
-  std::string err;
-  REQUIRE(read_kitti_bin(scan0, &direct, &err));
+  const CloudFile direct_read = read_kitti_bin(scan0);
+  REQUIRE(direct_read.ok);
+  const PointCloud& direct = direct_read.cloud;
   CHECK(dr.scans[0].size() == direct.size());
   CHECK(dr.scans[0].points[1000] == direct.points[1000]);
   // At the start of 00 the car drives forward (lidar +x) at about 0.86 m per frame, on flat ground.

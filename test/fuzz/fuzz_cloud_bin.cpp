@@ -4,10 +4,13 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace loopd;
-  PointCloud cloud;
-  std::string error;
   const std::string bytes = fuzz::as_string(data, size);
-  if (parse_cloud_bytes(bytes, "fuzz.bin", &cloud, &error)) {
+  const CloudFile file = parse_cloud_bytes(bytes, "fuzz.bin");
+  const PointCloud& cloud = file.cloud;
+  const std::string& error = file.error;
+  fuzz::check(file.ok == error.empty(), "ok exactly when there is no error");
+  if (!file.ok) fuzz::check(cloud.empty(), "a failed read hands out no points");
+  if (file.ok) {
     fuzz::check(cloud.size() == size / 16 && cloud.has_intensity(), "one point per 16 bytes, with intensity");
   } else {
     fuzz::check_error_names(error, "fuzz.bin");

@@ -5,10 +5,13 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace loopd;
-  PointCloud cloud;
-  std::string error;
   const std::string bytes = fuzz::as_string(data, size);
-  if (parse_cloud_bytes(bytes, "fuzz.pcd", &cloud, &error)) {
+  const CloudFile file = parse_cloud_bytes(bytes, "fuzz.pcd");
+  const PointCloud& cloud = file.cloud;
+  const std::string& error = file.error;
+  fuzz::check(file.ok == error.empty(), "ok exactly when there is no error");
+  if (!file.ok) fuzz::check(cloud.empty(), "a failed read hands out no points");
+  if (file.ok) {
     fuzz::check(cloud.intensity.empty() || cloud.has_intensity(), "intensity is empty or one per point");
     // Binary points take >= 3 bytes (x, y, z of 1 byte each); ascii points >= 6 (3 digits and 3 separators);
     // binary_compressed PCD can expand 88x at most.

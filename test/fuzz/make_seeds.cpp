@@ -66,10 +66,9 @@ std::string lzf_literals(const std::string& in) {
 
 void clouds() {
   const PointCloud c = small_cloud(6);
-  std::string err;
   const std::string bin = root + "/cloud_bin/six_points.bin";
   fs::create_directories(root + "/cloud_bin");
-  write_kitti_bin(bin, c, &err);
+  write_kitti_bin(bin, c);
   put("cloud_bin", "empty.bin", "");
 
   const std::string head = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\n"

@@ -49,13 +49,21 @@ void require_three_points(const PointCloud& c, bool intensity = true) {
 
 /// Reads `path`, expecting failure; returns the error.
 std::string read_error(const std::string& path) {
-  PointCloud c;
-  std::string error;
-  CHECK_FALSE(read_cloud_file(path, &c, &error));
-  CHECK(c.empty());
-  INFO(error);
-  CHECK(error.find(path) != std::string::npos);
-  return error;
+  const CloudFile f = read_cloud_file(path);
+  CHECK_FALSE(f.ok);
+  CHECK(f.cloud.empty());
+  INFO(f.error);
+  CHECK(f.error.find(path) != std::string::npos);
+  return f.error;
+}
+
+/// Reads `path`, expecting success; returns the cloud.
+PointCloud read_ok(const std::string& path) {
+  const CloudFile f = read_cloud_file(path);
+  INFO(f.error);
+  REQUIRE(f.ok);
+  CHECK(f.error.empty());
+  return f.cloud;
 }
 
 const std::string kPcdHead = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 3\nHEIGHT 1\n"
@@ -67,12 +75,11 @@ TEST_CASE("cloud files: .bin, .pcd (ascii, binary, binary_compressed, mixed type
           "[io]") {
   TempDir tmp;
   PointCloud c;
-  std::string error;
 
   std::string bin;
   for (const auto& p : kPts)
     for (float v : p) bin += raw(v);
-  REQUIRE(read_cloud_file(tmp.write("a.bin", bin), &c, &error));
+  c = read_ok(tmp.write("a.bin", bin));
   require_three_points(c);
 
   std::string ascii = kPcdHead + "DATA ascii\n", binary = kPcdHead + "DATA binary\n", soa;
@@ -82,14 +89,13 @@ TEST_CASE("cloud files: .bin, .pcd (ascii, binary, binary_compressed, mixed type
   }
   for (int k = 0; k < 4; ++k)
     for (const auto& p : kPts) soa += raw(p[k]);
-  REQUIRE(read_cloud_file(tmp.write("ascii.pcd", ascii), &c, &error));
+  c = read_ok(tmp.write("ascii.pcd", ascii));
   require_three_points(c);
-  REQUIRE(read_cloud_file(tmp.write("binary.PCD", binary), &c, &error));
+  c = read_ok(tmp.write("binary.PCD", binary));
   require_three_points(c);
   // LZF: a literal run of all 48 bytes needs two runs (at most 32 bytes each); then a back reference test below.
   const std::string lzf = std::string(1, '\x1f') + soa.substr(0, 32) + std::string(1, '\x0f') + soa.substr(32);
-  REQUIRE(read_cloud_file(tmp.write("c.pcd", kPcdHead + "DATA binary_compressed\n" + raw(std::uint32_t(lzf.size())) + raw(std::uint32_t(48)) + lzf),
-                          &c, &error));
+  c = read_ok(tmp.write("c.pcd", kPcdHead + "DATA binary_compressed\n" + raw(std::uint32_t(lzf.size())) + raw(std::uint32_t(48)) + lzf));
   require_three_points(c);
   // A back reference: 8 literal bytes then "copy 8 bytes from 8 back" gives the same 8 bytes twice.
   const std::string xyz_head = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 4\nHEIGHT 1\nPOINTS 4\nDATA binary_compressed\n";
@@ -97,7 +103,7 @@ TEST_CASE("cloud files: .bin, .pcd (ascii, binary, binary_compressed, mixed type
   // at distance 4 (ctrl: len 7 -> 7 + extra; 44 - 2 = 42 = 7 + 35).
   const std::string one = raw(1.0f);
   const std::string backref = std::string(1, '\x03') + one + std::string(1, static_cast<char>(7 << 5)) + std::string(1, '\x23') + std::string(1, '\x03');
-  REQUIRE(read_cloud_file(tmp.write("ref.pcd", xyz_head + raw(std::uint32_t(backref.size())) + raw(std::uint32_t(48)) + backref), &c, &error));
+  c = read_ok(tmp.write("ref.pcd", xyz_head + raw(std::uint32_t(backref.size())) + raw(std::uint32_t(48)) + backref));
   REQUIRE(c.size() == 4);
   CHECK_FALSE(c.has_intensity());
   for (const auto& p : c.points) CHECK(p == Eigen::Vector3f(1.f, 1.f, 1.f));
@@ -108,7 +114,7 @@ TEST_CASE("cloud files: .bin, .pcd (ascii, binary, binary_compressed, mixed type
     mixed += raw(std::uint16_t(5)) + raw(double(p[0])) + raw(double(p[1])) + raw(double(p[2]));
     for (int k = 0; k < 3; ++k) mixed += raw(0.5f);
   }
-  REQUIRE(read_cloud_file(tmp.write("mixed.pcd", mixed), &c, &error));
+  c = read_ok(tmp.write("mixed.pcd", mixed));
   require_three_points(c, false);
 
   const std::string props = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float intensity\n"
@@ -122,11 +128,11 @@ TEST_CASE("cloud files: .bin, .pcd (ascii, binary, binary_compressed, mixed type
       be += reversed(raw(v));
     }
   }
-  REQUIRE(read_cloud_file(tmp.write("a.ply", ply_ascii + "3 0 1 2\n"), &c, &error));
+  c = read_ok(tmp.write("a.ply", ply_ascii + "3 0 1 2\n"));
   require_three_points(c);
-  REQUIRE(read_cloud_file(tmp.write("le.ply", le + "\x03" + raw(0) + raw(1) + raw(2)), &c, &error));
+  c = read_ok(tmp.write("le.ply", le + "\x03" + raw(0) + raw(1) + raw(2)));
   require_three_points(c);
-  REQUIRE(read_cloud_file(tmp.write("be.ply", be + "\x03" + reversed(raw(0)) + reversed(raw(1)) + reversed(raw(2))), &c, &error));
+  c = read_ok(tmp.write("be.ply", be + "\x03" + reversed(raw(0)) + reversed(raw(1)) + reversed(raw(2))));
   require_three_points(c);
   // An element with a list before the vertices is walked over.
   std::string before = "ply\nformat binary_little_endian 1.0\nelement extra 2\nproperty list uchar double v\nelement vertex 3\n"
@@ -134,17 +140,17 @@ TEST_CASE("cloud files: .bin, .pcd (ascii, binary, binary_compressed, mixed type
   before += std::string(1, '\x02') + raw(1.0) + raw(2.0) + std::string(1, '\x00');
   for (const auto& p : kPts)
     for (float v : p) before += raw(v);
-  REQUIRE(read_cloud_file(tmp.write("before.ply", before), &c, &error));
+  c = read_ok(tmp.write("before.ply", before));
   require_three_points(c);
 
   // NaN and Inf are kept (callers filter them); a number beyond float's range becomes inf.
-  REQUIRE(read_cloud_file(tmp.write("nan.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 2\nPOINTS 2\nDATA ascii\nnan 1 2\n1e99 -inf 0\n"), &c, &error));
+  c = read_ok(tmp.write("nan.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 2\nPOINTS 2\nDATA ascii\nnan 1 2\n1e99 -inf 0\n"));
   REQUIRE(c.size() == 2);
   CHECK(std::isnan(c.points[0].x()));
   CHECK(c.points[1].x() == HUGE_VALF);
   CHECK(c.points[1].y() == -HUGE_VALF);
   // An empty .bin is a cloud of no points.
-  REQUIRE(read_cloud_file(tmp.write("empty.bin", ""), &c, &error));
+  c = read_ok(tmp.write("empty.bin", ""));
   CHECK(c.empty());
 }
 

@@ -20,11 +20,9 @@ constexpr double kDeg = M_PI / 180.0;
 PointCloud kitti_scan(int index) {
   char name[64];
   std::snprintf(name, sizeof name, "kitti/seq00/%06d.bin", index);
-  PointCloud c;
-  std::string err;
   const std::string path = loopd::test::data_file(name);
-  if (path.empty() || !read_kitti_bin(path, &c, &err)) c.points.clear();
-  return c;
+  if (path.empty()) return PointCloud();
+  return read_kitti_bin(path).cloud;  // empty when the read failed
 }
 
 struct KittiPair {
@@ -109,10 +107,10 @@ TEST_CASE("HDL-32E pair is aligned to its reference transform") {
   Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) REQUIRE(static_cast<bool>(in >> truth.matrix()(r, c)));
-  PointCloud source, target;
-  std::string err;
-  REQUIRE(read_cloud_file(source_file, &source, &err));
-  REQUIRE(read_cloud_file(target_file, &target, &err));
+  const CloudFile source_read = read_cloud_file(source_file), target_read = read_cloud_file(target_file);
+  REQUIRE(source_read.ok);
+  REQUIRE(target_read.ok);
+  const PointCloud &source = source_read.cloud, &target = target_read.cloud;
   const ScanRegistrationConfig cfg;
   for (int turn = 0; turn < 2; ++turn) {  // as recorded, and with the source turned by 180 deg
     const Eigen::Isometry3d R = make_isometry(0, 0, 0, turn * M_PI);

@@ -178,10 +178,10 @@ TEST_CASE("GICP aligns consecutive real KITTI scans to the ground truth (seq 00)
     std::snprintf(nb, sizeof nb, "kitti/seq00/%06d.bin", pair.second);
     LOOPD_REQUIRE_DATA(fa, na);
     LOOPD_REQUIRE_DATA(fb, nb);
-    PointCloud a, b;
-    std::string err;
-    REQUIRE(read_kitti_bin(fa, &a, &err));
-    REQUIRE(read_kitti_bin(fb, &b, &err));
+    CloudFile read_a = read_kitti_bin(fa), read_b = read_kitti_bin(fb);
+    REQUIRE(read_a.ok);
+    REQUIRE(read_b.ok);
+    PointCloud a = std::move(read_a.cloud), b = std::move(read_b.cloud);
     a = voxel_downsample(crop_range(remove_non_finite(a), 2.0, 80.0), 0.6);
     b = voxel_downsample(crop_range(remove_non_finite(b), 2.0, 80.0), 0.6);
     const Eigen::Isometry3d Ta = velo_poses.at(static_cast<std::size_t>(pair.first));

@@ -251,10 +251,9 @@ namespace {
 
 PreparedScan prepare_kitti(const std::string& file) {
   static const LidarModel model = lidar_model_hdl64();
-  PointCloud c;
-  std::string err;
-  REQUIRE(read_kitti_bin(file, &c, &err));
-  return prepare_scan(c, &model, PrepareConfig{});
+  const CloudFile read = read_kitti_bin(file);
+  REQUIRE(read.ok);
+  return prepare_scan(read.cloud, &model, PrepareConfig{});
 }
 }  // namespace
 

@@ -177,7 +177,9 @@ int main(int argc, char** argv) {
       }
       ++missing;
     } else {
-      if (!read_cloud_file(scan, &cloud, &error)) return fail(error);
+      CloudFile read = read_cloud_file(scan);
+      if (!read.ok) return fail(read.error);
+      cloud = std::move(read.cloud);
       if (model) assign_rings(*model, &cloud);
       if (!writer.write_message(scan_channel, utime, to_message(cloud, utime, seq, frame)))
         return fail("cannot write to " + out);

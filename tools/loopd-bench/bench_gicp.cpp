@@ -126,11 +126,11 @@ int run_bench_gicp(int argc, char** argv) {
     char a[32], b[32];
     std::snprintf(a, sizeof a, "/seq00/%06d.bin", fr.first);
     std::snprintf(b, sizeof b, "/seq00/%06d.bin", fr.second);
-    PointCloud ca, cb;
-    std::string err;
-    if (static_cast<std::size_t>(std::max(fr.first, fr.second)) >= velo_poses.size() || !read_kitti_bin(kitti_dir + a, &ca, &err) ||
-        !read_kitti_bin(kitti_dir + b, &cb, &err))
-      continue;
+    if (static_cast<std::size_t>(std::max(fr.first, fr.second)) >= velo_poses.size()) continue;
+    const CloudFile read_a = read_kitti_bin(kitti_dir + a);
+    const CloudFile read_b = read_a.ok ? read_kitti_bin(kitti_dir + b) : CloudFile{};
+    if (!read_b.ok) continue;
+    const PointCloud &ca = read_a.cloud, &cb = read_b.cloud;
     const Eigen::Isometry3d Ta = velo_poses[static_cast<std::size_t>(fr.first)], Tb = velo_poses[static_cast<std::size_t>(fr.second)];
     Pair p;
     p.name = "kitti 00 " + std::to_string(fr.second) + "->" + std::to_string(fr.first);

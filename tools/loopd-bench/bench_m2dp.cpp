@@ -73,13 +73,12 @@ int run_bench_m2dp(int argc, char** argv) {
     clouds.push_back(synthetic_cloud(points, 42));
   } else {
     for (const auto& f : files) {
-      PointCloud c;
-      std::string err;
-      if (!read_cloud_file(f, &c, &err)) {
-        std::cerr << "loopd-bench m2dp: " << err << "\n";
+      const CloudFile read = read_cloud_file(f);
+      if (!read.ok) {
+        std::cerr << "loopd-bench m2dp: " << read.error << "\n";
         return 1;
       }
-      clouds.push_back(remove_non_finite(c).points);
+      clouds.push_back(remove_non_finite(read.cloud).points);
     }
   }
   for (int w = 0; w < warmup; ++w) m2dp.compute(clouds[static_cast<std::size_t>(w) % clouds.size()]);

@@ -98,12 +98,13 @@ std::vector<Pair> kitti_pairs(const std::string& dir) {
   for (const auto& id : ids) {
     if (static_cast<std::size_t>(std::max(id[0], id[1])) >= velo_poses.size()) continue;
     const Eigen::Isometry3d Tq = velo_poses[static_cast<std::size_t>(id[0])], Tm = velo_poses[static_cast<std::size_t>(id[1])];
-    PointCloud q, m;
-    std::string err;
     char nq[64], nm[64];
     std::snprintf(nq, sizeof nq, "/seq00/%06d.bin", id[0]);
     std::snprintf(nm, sizeof nm, "/seq00/%06d.bin", id[1]);
-    if (!read_kitti_bin(dir + nq, &q, &err) || !read_kitti_bin(dir + nm, &m, &err)) continue;
+    const CloudFile read_q = read_kitti_bin(dir + nq);
+    const CloudFile read_m = read_q.ok ? read_kitti_bin(dir + nm) : CloudFile{};
+    if (!read_m.ok) continue;
+    const PointCloud &q = read_q.cloud, &m = read_m.cloud;
     const double yaw = yaws[k++ % 3];
     const Eigen::Isometry3d R = make_isometry(0, 0, 0, yaw * kDeg);
     Pair p;

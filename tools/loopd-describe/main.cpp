@@ -22,14 +22,13 @@ int main(int argc, char** argv) {
   app.add_flag("--json", json, "one JSON object as the last stdout line");
   CLI11_PARSE(app, argc, argv);
 
-  PointCloud cloud;
-  std::string err;
-  if (!read_cloud_file(file, &cloud, &err)) {
-    std::cerr << "loopd-describe: " << err << "\n";
+  const CloudFile read = read_cloud_file(file);
+  if (!read.ok) {
+    std::cerr << "loopd-describe: " << read.error << "\n";
     return 1;
   }
   std::size_t removed = 0;
-  cloud = remove_non_finite(cloud, &removed);
+  const PointCloud cloud = remove_non_finite(read.cloud, &removed);
   M2dpConfig config;
   config.backend = *backend_from_string(backend_name);
   config.frame = *frame_from_string(frame_name);

@@ -38,12 +38,13 @@ int main(int argc, char** argv) {
     std::cerr << "loopd-register: " << *e << "\n";
     return 1;
   }
-  PointCloud query, match;
-  std::string err;
-  if (!read_cloud_file(query_file, &query, &err) || !read_cloud_file(match_file, &match, &err)) {
-    std::cerr << "loopd-register: " << err << "\n";
+  const CloudFile query_read = read_cloud_file(query_file), match_read = query_read.ok ? read_cloud_file(match_file) : CloudFile{};
+  if (!query_read.ok || !match_read.ok) {
+    std::cerr << "loopd-register: " << (query_read.ok ? match_read.error : query_read.error) << "\n";
     return 1;
   }
+  const PointCloud& query = query_read.cloud;
+  const PointCloud& match = match_read.cloud;
   double ms_prepare = 0;
   const FourPcsResult r = register_scans(query, match, model ? &*model : nullptr, config, &ms_prepare);
   double T[16];

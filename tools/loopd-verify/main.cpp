@@ -62,12 +62,13 @@ int main(int argc, char** argv) {
     std::cerr << "loopd-verify: " << *err << "\n";
     return 1;
   }
-  PointCloud query_cloud, match_cloud;
-  std::string err;
-  if (!read_cloud_file(query_file, &query_cloud, &err) || !read_cloud_file(match_file, &match_cloud, &err)) {
-    std::cerr << "loopd-verify: " << err << "\n";
+  const CloudFile query_read = read_cloud_file(query_file), match_read = query_read.ok ? read_cloud_file(match_file) : CloudFile{};
+  if (!query_read.ok || !match_read.ok) {
+    std::cerr << "loopd-verify: " << (query_read.ok ? match_read.error : query_read.error) << "\n";
     return 1;
   }
+  const PointCloud& query_cloud = query_read.cloud;
+  const PointCloud& match_cloud = match_read.cloud;
   const LidarModel* m = model ? &*model : nullptr;
   const PreparedScan query = prepare_scan(query_cloud, m, prep);
   const PreparedScan match = prepare_scan(match_cloud, m, prep);

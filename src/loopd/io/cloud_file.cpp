@@ -18,66 +18,65 @@ std::string lower_extension(const std::string& path) {
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return ext;
 }
+
+CloudFile failed(std::string error) {
+  CloudFile f;
+  f.error = std::move(error);
+  return f;
+}
 }  // namespace
 
-bool parse_kitti_bin(const std::string& bytes, const std::string& source, PointCloud* cloud, std::string* error) {
-  *cloud = PointCloud();
+CloudFile parse_kitti_bin(const std::string& bytes, const std::string& source) {
+  CloudFile f;
   if (bytes.size() % 16 != 0) {
-    *error = source + ": byte offset " + std::to_string(bytes.size() - bytes.size() % 16) + ": size " + std::to_string(bytes.size()) +
-             " is not a multiple of 16 bytes (float32 x, y, z, intensity a point; " + std::to_string(bytes.size() % 16) + " bytes left over)";
-    return false;
+    f.error = source + ": byte offset " + std::to_string(bytes.size() - bytes.size() % 16) + ": size " + std::to_string(bytes.size()) +
+              " is not a multiple of 16 bytes (float32 x, y, z, intensity a point; " + std::to_string(bytes.size() % 16) + " bytes left over)";
+    return f;
   }
   const std::size_t n = bytes.size() / 16;  // the file's own size: nothing larger is allocated
-  cloud->points.resize(n);
-  cloud->intensity.resize(n);
+  f.cloud.points.resize(n);
+  f.cloud.intensity.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     float v[4];
     std::memcpy(v, bytes.data() + 16 * i, sizeof(v));
-    cloud->points[i] = Eigen::Vector3f(v[0], v[1], v[2]);
-    cloud->intensity[i] = v[3];
+    f.cloud.points[i] = Eigen::Vector3f(v[0], v[1], v[2]);
+    f.cloud.intensity[i] = v[3];
   }
-  return true;
+  f.ok = true;
+  return f;
 }
 
-bool read_kitti_bin(const std::string& path, PointCloud* cloud, std::string* error) {
-  *cloud = PointCloud();
-  std::string bytes;
-  if (!read_file_bytes(path, &bytes, error)) return false;
-  return parse_kitti_bin(bytes, path, cloud, error);
+CloudFile read_kitti_bin(const std::string& path) {
+  const FileBytes file = read_file_bytes(path);
+  if (!file.ok) return failed(file.error);
+  return parse_kitti_bin(file.bytes, path);
 }
 
-bool write_kitti_bin(const std::string& path, const PointCloud& cloud, std::string* error) {
+std::optional<std::string> write_kitti_bin(const std::string& path, const PointCloud& cloud) {
   std::ofstream out(path, std::ios::binary);
-  if (!out) {
-    *error = "cannot write " + path;
-    return false;
-  }
+  if (!out) return "cannot write " + path;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const float v[4] = {cloud.points[i].x(), cloud.points[i].y(), cloud.points[i].z(), cloud.has_intensity() ? cloud.intensity[i] : 0.f};
     out.write(reinterpret_cast<const char*>(v), sizeof(v));
   }
-  return static_cast<bool>(out);
+  if (!out) return path + ": write failed";
+  return std::nullopt;
 }
 
-bool parse_cloud_bytes(const std::string& bytes, const std::string& path, PointCloud* cloud, std::string* error) {
+CloudFile parse_cloud_bytes(const std::string& bytes, const std::string& path) {
   const std::string ext = lower_extension(path);
-  if (ext == "bin") return parse_kitti_bin(bytes, path, cloud, error);
-  if (ext == "pcd") return parse_pcd(bytes, path, cloud, error);
-  if (ext == "ply") return parse_ply(bytes, path, cloud, error);
-  *error = path + ": unknown point cloud format '." + ext + "' (expected .bin, .pcd or .ply)";
-  return false;
+  if (ext == "bin") return parse_kitti_bin(bytes, path);
+  if (ext == "pcd") return parse_pcd(bytes, path);
+  if (ext == "ply") return parse_ply(bytes, path);
+  return failed(path + ": unknown point cloud format '." + ext + "' (expected .bin, .pcd or .ply)");
 }
 
-bool read_cloud_file(const std::string& path, PointCloud* cloud, std::string* error) {
-  *cloud = PointCloud();
+CloudFile read_cloud_file(const std::string& path) {
   const std::string ext = lower_extension(path);
-  if (ext != "bin" && ext != "pcd" && ext != "ply") {
-    *error = path + ": unknown point cloud format '." + ext + "' (expected .bin, .pcd or .ply)";
-    return false;
-  }
-  std::string bytes;
-  if (!read_file_bytes(path, &bytes, error)) return false;
-  return parse_cloud_bytes(bytes, path, cloud, error);
+  if (ext != "bin" && ext != "pcd" && ext != "ply") return failed(path + ": unknown point cloud format '." + ext + "' (expected .bin, .pcd or .ply)");
+  const FileBytes file = read_file_bytes(path);
+  if (!file.ok) return failed(file.error);
+  return parse_cloud_bytes(file.bytes, path);
 }
 
 }  // namespace loopd

@@ -334,28 +334,28 @@ std::optional<std::string> read_binary_points(const std::string& bytes, const st
   return std::nullopt;
 }
 
-bool parse_pcd_points(const std::string& bytes, const std::string& source, PointCloud* cloud, std::string* error) {
-  *cloud = PointCloud();
+/// Header, wanted fields, then the points of the DATA encoding.
+std::optional<std::string> parse_pcd_points(const std::string& bytes, const std::string& source, PointCloud* cloud) {
   PcdHeader h;
   int line_no = 0;
-  if (std::string reason = parse_header(bytes, &h, &line_no); !reason.empty()) {
-    *error = at_line(source, line_no) + reason;
-    return false;
-  }
+  if (std::string reason = parse_header(bytes, &h, &line_no); !reason.empty()) return at_line(source, line_no) + reason;
   PcdWanted wanted;
   std::optional<std::string> reason = find_wanted_fields(h, source, &wanted);
   if (!reason) reason = h.data == "ascii" ? read_ascii_points(bytes, source, h, wanted, cloud) : read_binary_points(bytes, source, h, wanted, cloud);
-  if (!reason) return true;
-  *error = *reason;
-  return false;
+  return reason;
 }
 
 }  // namespace
 
-bool parse_pcd(const std::string& bytes, const std::string& source, PointCloud* cloud, std::string* error) {
-  if (parse_pcd_points(bytes, source, cloud, error)) return true;
-  *cloud = PointCloud();  // nothing half-read is handed out
-  return false;
+CloudFile parse_pcd(const std::string& bytes, const std::string& source) {
+  CloudFile f;
+  if (auto reason = parse_pcd_points(bytes, source, &f.cloud)) {
+    f.cloud = PointCloud();  // nothing half-read is handed out
+    f.error = *reason;
+    return f;
+  }
+  f.ok = true;
+  return f;
 }
 
 }  // namespace loopd

@@ -301,22 +301,20 @@ std::optional<std::string> read_binary_body(const std::string& bytes, const std:
   return std::nullopt;
 }
 
-bool parse_ply_points(const std::string& bytes, const std::string& source, PointCloud* cloud, std::string* error) {
-  *cloud = PointCloud();
-  PlyLayout layout;
-  std::optional<std::string> reason = read_layout(bytes, source, &layout);
-  if (!reason) reason = layout.format == PlyFormat::kAscii ? read_ascii_body(bytes, source, layout, cloud) : read_binary_body(bytes, source, layout, cloud);
-  if (!reason) return true;
-  *error = *reason;
-  return false;
-}
-
 }  // namespace
 
-bool parse_ply(const std::string& bytes, const std::string& source, PointCloud* cloud, std::string* error) {
-  if (parse_ply_points(bytes, source, cloud, error)) return true;
-  *cloud = PointCloud();  // nothing half-read is handed out
-  return false;
+CloudFile parse_ply(const std::string& bytes, const std::string& source) {
+  CloudFile f;
+  PlyLayout layout;
+  std::optional<std::string> reason = read_layout(bytes, source, &layout);
+  if (!reason) reason = layout.format == PlyFormat::kAscii ? read_ascii_body(bytes, source, layout, &f.cloud) : read_binary_body(bytes, source, layout, &f.cloud);
+  if (reason) {
+    f.cloud = PointCloud();  // nothing half-read is handed out
+    f.error = *reason;
+    return f;
+  }
+  f.ok = true;
+  return f;
 }
 
 }  // namespace loopd

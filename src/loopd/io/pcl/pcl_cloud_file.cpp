@@ -11,25 +11,31 @@
 #include "loopd/io/ply_format.hpp"
 
 namespace loopd {
+namespace {
+CloudFile failed(std::string error) {
+  CloudFile f;
+  f.error = std::move(error);
+  return f;
+}
+}  // namespace
 
-bool read_pcl_cloud_file(const std::string& path, PointCloud* cloud, std::string* error) {
+CloudFile read_pcl_cloud_file(const std::string& path) {
   // PCL's readers size their buffers from the header before checking that the data are there (a PCD header that
   // declares 2^31 points makes them allocate gigabytes): the file is checked by loopd's own parser first.
-  std::string bytes;
-  if (!read_file_bytes(path, &bytes, error)) return false;
-  const bool is_ply_ext = path.size() >= 4 && (path.substr(path.size() - 4) == ".ply" || path.substr(path.size() - 4) == ".PLY");
-  if (!(is_ply_ext ? parse_ply(bytes, path, cloud, error) : parse_pcd(bytes, path, cloud, error))) return false;
-  bytes.clear();
-  pcl::PCLPointCloud2 blob;
   const bool is_ply = path.size() >= 4 && (path.substr(path.size() - 4) == ".ply" || path.substr(path.size() - 4) == ".PLY");
-  const int rc = is_ply ? pcl::PLYReader().read(path, blob) : pcl::PCDReader().read(path, blob);
-  if (rc < 0) {
-    *error = path + ": PCL could not parse the file";
-    return false;
+  {
+    const FileBytes file = read_file_bytes(path);
+    if (!file.ok) return failed(file.error);
+    CloudFile own = is_ply ? parse_ply(file.bytes, path) : parse_pcd(file.bytes, path);
+    if (!own.ok) return own;
   }
+  pcl::PCLPointCloud2 blob;
+  const int rc = is_ply ? pcl::PLYReader().read(path, blob) : pcl::PCDReader().read(path, blob);
+  if (rc < 0) return failed(path + ": PCL could not parse the file");
   bool has_intensity = false;
   for (const auto& f : blob.fields) has_intensity |= (f.name == "intensity");
-  *cloud = PointCloud();
+  CloudFile result;
+  PointCloud* cloud = &result.cloud;
   if (has_intensity) {
     pcl::PointCloud<pcl::PointXYZI> pc;
     pcl::fromPCLPointCloud2(blob, pc);
@@ -44,7 +50,8 @@ bool read_pcl_cloud_file(const std::string& path, PointCloud* cloud, std::string
     cloud->points.reserve(pc.size());
     for (const auto& p : pc) cloud->points.emplace_back(p.x, p.y, p.z);
   }
-  return true;
+  result.ok = true;
+  return result;
 }
 
 }  // namespace loopd
