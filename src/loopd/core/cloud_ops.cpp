@@ -1,9 +1,10 @@
 #include "loopd/core/cloud_ops.hpp"
 
+#include "loopd/core/voxel_grid.hpp"
+
 #include <algorithm>
-#include <cmath>
 #include <cstdint>
-#include <numeric>
+#include <utility>
 
 namespace loopd {
 namespace {
@@ -42,55 +43,31 @@ PointCloud crop_range(const PointCloud& cloud, double min_range, double max_rang
 
 PointCloud voxel_downsample(const PointCloud& cloud, double leaf_size) {
   if (leaf_size <= 0.0) return cloud;
-  const double inv = 1.0 / leaf_size;
-  // Key: 21 bits per axis (voxel coords must lie within +-2^20 voxels of the origin). Points are accumulated in an
-  // open-addressing hash table in index order, then the occupied voxels are sorted by key: the output order and
-  // every sum are deterministic, and the cost is O(n) + O(m log m) for m voxels instead of sorting all n points.
-  constexpr std::int64_t kOffset = 1 << 20;
-  constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
-  std::size_t capacity = 16;
-  while (capacity < 2 * cloud.size()) capacity <<= 1;
-  std::vector<std::uint64_t> slot_key(capacity, kEmpty);
-  std::vector<std::uint32_t> slot_voxel(capacity);
-  struct Voxel {
-    std::uint64_t key;
-    Eigen::Vector3d sum;
-    double intensity;
-    std::uint32_t count;
-    std::uint32_t first;  ///< lowest point index in the voxel
+  struct IntensityAndFirst {
+    double intensity = 0.0;
+    std::uint32_t first = 0;  ///< lowest point index in the voxel
   };
-  std::vector<Voxel> voxels;
   const bool has_i = cloud.has_intensity();
   const bool has_r = cloud.ring.size() == cloud.size();
+  VoxelGrid<IntensityAndFirst> grid(leaf_size, cloud.size());
+  const double inv = 1.0 / leaf_size;
   for (std::uint32_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3f& p = cloud.points[i];
-    if (!p.allFinite()) continue;
-    const std::int64_t x = static_cast<std::int64_t>(std::floor(p.x() * inv)) + kOffset;
-    const std::int64_t y = static_cast<std::int64_t>(std::floor(p.y() * inv)) + kOffset;
-    const std::int64_t z = static_cast<std::int64_t>(std::floor(p.z() * inv)) + kOffset;
-    if (x < 0 || y < 0 || z < 0 || x >= (1 << 21) || y >= (1 << 21) || z >= (1 << 21)) continue;
-    const std::uint64_t key = (static_cast<std::uint64_t>(x) << 42) | (static_cast<std::uint64_t>(y) << 21) | static_cast<std::uint64_t>(z);
-    std::size_t h = detail::voxel_slot(key, capacity);
-    while (slot_key[h] != kEmpty && slot_key[h] != key) h = (h + 1) & (capacity - 1);
-    if (slot_key[h] == kEmpty) {
-      slot_key[h] = key;
-      slot_voxel[h] = static_cast<std::uint32_t>(voxels.size());
-      voxels.push_back({key, Eigen::Vector3d::Zero(), 0.0, 0, i});
-    }
-    Voxel& v = voxels[slot_voxel[h]];
-    v.sum += p.cast<double>();
-    if (has_i) v.intensity += cloud.intensity[i];
-    ++v.count;
+    // Points far outside the key range are dropped here, before the key's integer conversion could overflow.
+    if (!p.allFinite() || !(p.cwiseAbs().maxCoeff() * inv <= kMaxScaledVoxelCoordinate)) continue;
+    auto* v = grid.add(p);
+    if (v == nullptr) continue;
+    if (v->count == 1) v->payload.first = i;
+    if (has_i) v->payload.intensity += cloud.intensity[i];
   }
-  std::sort(voxels.begin(), voxels.end(), [](const Voxel& a, const Voxel& b) { return a.key < b.key; });
+  const auto voxels = std::move(grid).sorted_voxels();
   PointCloud out;
   out.num_rings = cloud.num_rings;
   out.points.reserve(voxels.size());
-  for (const Voxel& v : voxels) {
-    const double n = static_cast<double>(v.count);
-    out.points.push_back((v.sum / n).cast<float>());
-    if (has_i) out.intensity.push_back(static_cast<float>(v.intensity / n));
-    if (has_r) out.ring.push_back(cloud.ring[v.first]);
+  for (const auto& v : voxels) {
+    out.points.push_back(v.centroid());
+    if (has_i) out.intensity.push_back(static_cast<float>(v.payload.intensity / static_cast<double>(v.count)));
+    if (has_r) out.ring.push_back(cloud.ring[v.payload.first]);
   }
   return out;
 }
