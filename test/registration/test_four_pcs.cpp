@@ -6,7 +6,7 @@
 
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/pose.hpp"
-#include "loopd/registration/scan_registration.hpp"
+#include "loopd/pipeline/register_scans.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
 
@@ -24,7 +24,7 @@ const Town& town() {
 }
 
 struct Revisit {
-  RegistrationInput query, match;
+  PreparedScan query, match;
   Eigen::Isometry3d T_match_query;
 };
 
@@ -35,8 +35,8 @@ Revisit make_revisit(const LidarModel& model, int place, double yaw_deg, const S
   const double yaw_a = std::atan2(A.linear()(1, 0), A.linear()(0, 0));
   const Eigen::Isometry3d B = ground_pose(town(), A.translation().x() + 1.41, A.translation().y() + 1.41, yaw_a + yaw_deg * kDeg);
   Revisit r;
-  r.match = prepare_registration_input(simulate_scan(town(), model, A, 7, 1, 0), &model, cfg);
-  r.query = prepare_registration_input(simulate_scan(town(), model, B, 11, 1, 1), &model, cfg);
+  r.match = prepare_scan(simulate_scan(town(), model, A, 7, 1, 0), &model, cfg.prepare);
+  r.query = prepare_scan(simulate_scan(town(), model, B, 11, 1, 1), &model, cfg.prepare);
   r.T_match_query = A.inverse() * B;
   return r;
 }
@@ -104,8 +104,8 @@ TEST_CASE("scans of different places end with a lower LCP than revisits") {
     const FourPcsResult same = align(rv, cfg.four_pcs);
     REQUIRE(same.success);
     min_same = std::min(min_same, same.lcp_fraction);
-    const RegistrationInput elsewhere =
-        prepare_registration_input(simulate_scan(other, model, street_pose(other, place, 1, place % 2, 25.0), 13, 1, 0), &model, cfg);
+    const PreparedScan elsewhere =
+        prepare_scan(simulate_scan(other, model, street_pose(other, place, 1, place % 2, 25.0), 13, 1, 0), &model, cfg.prepare);
     const FourPcsResult diff = align_four_pcs(elsewhere.points, elsewhere.segmentation, rv.match.points, rv.match.segmentation, cfg.four_pcs);
     max_other = std::max(max_other, diff.success ? diff.lcp_fraction : 0.0);
   }
@@ -137,7 +137,7 @@ TEST_CASE("the result is identical with 1 and 2 threads and on repeated runs") {
 TEST_CASE("degenerate input returns no alignment with a reason") {
   const FourPcsConfig cfg;
   const LidarModel model = lidar_model_hdl64();
-  const RegistrationInput good = prepare_registration_input(simulate_scan(town(), model, street_pose(town(), 1, 1, 1, 25.0), 7, 1, 0), &model, {});
+  const PreparedScan good = prepare_scan(simulate_scan(town(), model, street_pose(town(), 1, 1, 1, 25.0), 7, 1, 0), &model, registration_prepare_config());
   REQUIRE(good.segmentation.num_planar() > 0);
 
   SECTION("fewer than 4 points") {
@@ -151,7 +151,7 @@ TEST_CASE("degenerate input returns no alignment with a reason") {
     std::uniform_real_distribution<float> u(-20.f, 20.f);
     PointCloud blob;
     for (int i = 0; i < 20000; ++i) blob.points.emplace_back(u(rng), u(rng), u(rng) * 0.2f);
-    const RegistrationInput in = prepare_registration_input(blob, nullptr, {});
+    const PreparedScan in = prepare_scan(blob, nullptr, registration_prepare_config());
     CHECK(in.segmentation.num_planar() == 0);
     const FourPcsResult r = align_four_pcs(in.points, in.segmentation, good.points, good.segmentation, cfg);
     CHECK_FALSE(r.success);

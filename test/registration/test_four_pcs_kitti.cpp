@@ -9,7 +9,7 @@
 #include "loopd/core/pose.hpp"
 #include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
-#include "loopd/registration/scan_registration.hpp"
+#include "loopd/pipeline/register_scans.hpp"
 #include "support/data_dir.hpp"
 
 using namespace loopd;
@@ -68,11 +68,11 @@ TEST_CASE("KITTI 95 -> 94 is found from any heading (query turned about its z ax
   const std::vector<Eigen::Isometry3d>& velo_poses = kitti.poses;  // T_world_velo
   const Eigen::Isometry3d Tq = velo_poses.at(95), Tm = velo_poses.at(94);
   const ScanRegistrationConfig cfg;
-  const RegistrationInput match = prepare_registration_input(kitti_scan(94), nullptr, cfg);
+  const PreparedScan match = prepare_scan(kitti_scan(94), nullptr, cfg.prepare);
   const PointCloud query = kitti_scan(95);
   for (double yaw : {45.0, 90.0, 135.0, 180.0}) {
     const Eigen::Isometry3d R = make_isometry(0, 0, 0, yaw * kDeg);  // turned query: points R * p
-    const RegistrationInput q = prepare_registration_input(transform(query, R), nullptr, cfg);
+    const PreparedScan q = prepare_scan(transform(query, R), nullptr, cfg.prepare);
     const Eigen::Isometry3d truth = Tm.inverse() * Tq * R.inverse();
     const FourPcsResult r = align_four_pcs(q.points, q.segmentation, match.points, match.segmentation, cfg.four_pcs);
     const Eigen::Isometry3d err = truth.inverse() * r.T_target_source;

@@ -26,7 +26,7 @@
 #include "loopd/core/pose.hpp"
 #include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
-#include "loopd/registration/scan_registration.hpp"
+#include "loopd/pipeline/register_scans.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
 #include "pcl_peers_registration.hpp"
@@ -157,16 +157,17 @@ int run_bench_register(int argc, char** argv) {
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     const Pair& p = pairs[i];
     const LidarModel* model = i < num_sim ? &hdl64 : nullptr;  // KITTI: rings from binned elevations
-    const RegistrationInput q = prepare_registration_input(p.query, model, cfg);
-    const RegistrationInput m = prepare_registration_input(p.match, model, cfg);
-    prep_ms.push_back(0.5 * (q.ms + m.ms));
+    const PreparedScan q = prepare_scan(p.query, model, cfg.prepare);
+    const PreparedScan m = prepare_scan(p.match, model, cfg.prepare);
+    prep_ms.push_back(0.5 * (q.ms_total + m.ms_total));
     const double c0 = thread_cpu_ms();
     const FourPcsResult r = align_four_pcs(q.points, q.segmentation, m.points, m.segmentation, cfg.four_pcs);
     record(&loopd_stats, r.T_target_source, p.truth, r.success, r.ms, thread_cpu_ms() - c0);
     lcp.push_back(r.lcp_fraction);
     if (!no_pcl) {
-      const auto fq = grid(p.query, 1.5, cfg.min_range, cfg.max_range), fm = grid(p.match, 1.5, cfg.min_range, cfg.max_range);
-      const auto kq = grid(p.query, 2.5, cfg.min_range, cfg.max_range), km = grid(p.match, 2.5, cfg.min_range, cfg.max_range);
+      const double lo = cfg.prepare.min_range, hi = cfg.prepare.max_range;
+      const auto fq = grid(p.query, 1.5, lo, hi), fm = grid(p.match, 1.5, lo, hi);
+      const auto kq = grid(p.query, 2.5, lo, hi), km = grid(p.match, 2.5, lo, hi);
       const bench::PclFpcsResult k = bench::pcl_fpcs_align(bench::PclFpcsVariant::kKfpcs, kq, km, pcl_cfg);
       const bench::PclFpcsResult f = bench::pcl_fpcs_align(bench::PclFpcsVariant::kFpcs, fq, fm, pcl_cfg);
       pcl_available = k.available;

@@ -6,7 +6,7 @@
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/pose.hpp"
 #include "loopd/io/cloud_file.hpp"
-#include "loopd/registration/scan_registration.hpp"
+#include "loopd/pipeline/register_scans.hpp"
 #include "tool_output.hpp"
 
 using namespace loopd;
@@ -19,7 +19,7 @@ int main(int argc, char** argv) {
   app.add_option("QUERY", query_file, "query scan (.bin KITTI, .pcd, .ply)")->required();
   app.add_option("MATCH", match_file, "match scan (.bin KITTI, .pcd, .ply)")->required();
   app.add_option("--lidar", lidar, "lidar model for rings from elevation: vlp16 | hdl32 | hdl64 | os1-64 (default: bin elevations)");
-  app.add_option("--voxel", config.voxel_size, "voxel size of the LCP cloud [m]")->capture_default_str();
+  app.add_option("--voxel", config.prepare.voxel_size, "voxel size of the LCP cloud [m]")->capture_default_str();
   app.add_option("--delta", config.four_pcs.delta, "LCP distance [m]")->capture_default_str();
   app.add_option("--max-bases", config.four_pcs.max_bases, "coplanar bases tried")->capture_default_str();
   app.add_option("--threads", config.four_pcs.num_threads, "threads scoring congruent sets")->capture_default_str();
