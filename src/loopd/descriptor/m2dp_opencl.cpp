@@ -166,8 +166,12 @@ cl_int set_arg(cl_kernel k, cl_uint i, const T& v) {
 }  // namespace
 
 M2dpOpenCl::M2dpOpenCl(const M2dpConfig& config) : config_(config), state_(std::make_unique<State>()) {
-  OpenClDeviceInfo device;
-  if (!pick_opencl_device(config.opencl_device, &device, &error_)) return;
+  const OpenClDevicePick pick = pick_opencl_device(config.opencl_device);
+  if (!pick.ok) {
+    error_ = pick.error;
+    return;
+  }
+  const OpenClDeviceInfo& device = pick.device;
   device_name_ = device.name + " (" + device.platform + ")";
   cl_device_id id = static_cast<cl_device_id>(device.id);
   cl_int err = CL_SUCCESS;

@@ -1,6 +1,7 @@
 #include "loopd/opencl/opencl_device.hpp"
 
 #include <CL/cl.h>
+#include <algorithm>
 #include <CL/cl_ext.h>
 
 namespace loopd {
@@ -53,27 +54,25 @@ std::vector<OpenClDeviceInfo> list_opencl_devices() {
   return out;
 }
 
-bool pick_opencl_device(int index, OpenClDeviceInfo* device, std::string* error) {
+OpenClDevicePick pick_opencl_device(int index) {
+  OpenClDevicePick pick;
   const std::vector<OpenClDeviceInfo> all = list_opencl_devices();
   if (all.empty()) {
-    if (error) *error = "no OpenCL platform or device found";
-    return false;
+    pick.error = "no OpenCL platform or device found";
+    return pick;
   }
+  if (index >= static_cast<int>(all.size())) {
+    pick.error = "opencl_device " + std::to_string(index) + " out of range (" + std::to_string(all.size()) + " devices)";
+    return pick;
+  }
+  pick.ok = true;
   if (index >= 0) {
-    if (index >= static_cast<int>(all.size())) {
-      if (error) *error = "opencl_device " + std::to_string(index) + " out of range (" + std::to_string(all.size()) + " devices)";
-      return false;
-    }
-    *device = all[static_cast<std::size_t>(index)];
-    return true;
+    pick.device = all[static_cast<std::size_t>(index)];
+    return pick;
   }
-  for (const auto& d : all)
-    if (d.gpu) {
-      *device = d;
-      return true;
-    }
-  *device = all.front();
-  return true;
+  const auto gpu = std::find_if(all.begin(), all.end(), [](const OpenClDeviceInfo& d) { return d.gpu; });
+  pick.device = gpu != all.end() ? *gpu : all.front();
+  return pick;
 }
 
 std::string opencl_error_string(int code) {

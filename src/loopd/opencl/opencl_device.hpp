@@ -18,9 +18,15 @@ struct OpenClDeviceInfo {
 /// @brief All devices of all platforms, in platform order. Empty when no ICD / platform exists.
 std::vector<OpenClDeviceInfo> list_opencl_devices();
 
-/// @brief The device for a configured index: `index` >= 0 picks that entry; -1 the first GPU, else the first
-///        device. Returns false with a reason in `error` when there is none.
-bool pick_opencl_device(int index, OpenClDeviceInfo* device, std::string* error);
+/// @brief The device picked for a configured index, or why there is none.
+struct OpenClDevicePick {
+  bool ok = false;
+  std::string error;
+  OpenClDeviceInfo device;
+};
+
+/// @brief The device for a configured index: `index` >= 0 picks that entry; -1 the first GPU, else the first device.
+OpenClDevicePick pick_opencl_device(int index);
 
 /// @brief "CL_OUT_OF_RESOURCES (-5)" style text for an OpenCL error code.
 std::string opencl_error_string(int code);

@@ -251,13 +251,9 @@ Eigen::Vector3f smoothed_normal(const SegmentationConfig& cfg, const RangeImage&
 
 }  // namespace
 
-bool build_range_image(const PointCloud& scan, const LidarModel* model, const SegmentationConfig& cfg, RangeImage* img,
-                       std::string* error) {
+std::optional<std::string> build_range_image(const PointCloud& scan, const LidarModel* model, const SegmentationConfig& cfg, RangeImage* img) {
   const RowLookup rows = make_row_lookup(scan, model, cfg);
-  if (rows.rows <= 0) {
-    *error = "no rings: scan has no ring indices and elevations could not be binned";
-    return false;
-  }
+  if (rows.rows <= 0) return "no rings: scan has no ring indices and elevations could not be binned";
   const int cols = cfg.azimuth_columns > 0 ? cfg.azimuth_columns : kDefaultColumns;
   img->rows = rows.rows;
   img->cols = cols;
@@ -266,7 +262,7 @@ bool build_range_image(const PointCloud& scan, const LidarModel* model, const Se
   img->range.assign(num_pixels, 0.f);
   img->xyz.resize(num_pixels);  // valid only where index >= 0
   if (rows.places_points()) project_points(scan, rows, cfg, img);
-  return true;
+  return std::nullopt;
 }
 
 void compute_normals(const SegmentationConfig& cfg, RangeImage* img) {

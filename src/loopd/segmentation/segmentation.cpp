@@ -53,7 +53,8 @@ Segmentation segment(const PointCloud& scan, const LidarModel* model, const Segm
   }
   // The scan on its range image, with a surface normal per pixel.
   detail::RangeImage img;
-  if (!detail::build_range_image(scan, model, config, &img, &out.error)) {
+  if (auto error = detail::build_range_image(scan, model, config, &img)) {
+    out.error = *error;
     out.ms = sw.ms();
     return out;
   }

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,9 +43,8 @@ struct RangeImage {
   std::vector<Eigen::Vector3f> normal;  ///< unit normal per pixel, zero when unknown
 };
 
-/// @brief Projects the scan (nearest return per pixel); false with `error` set when no rings can be derived.
-bool build_range_image(const PointCloud& scan, const LidarModel* model, const SegmentationConfig& cfg, RangeImage* img,
-                       std::string* error);
+/// @brief Projects the scan (nearest return per pixel) into `img`; the reason when no rings can be derived.
+std::optional<std::string> build_range_image(const PointCloud& scan, const LidarModel* model, const SegmentationConfig& cfg, RangeImage* img);
 
 /// @brief Fills img->normal: cross product of the horizontal and vertical tangents, smoothed over 3x3 pixels of the
 /// same surface, facing the sensor.
