@@ -1,0 +1,68 @@
+#pragma once
+/// @file What the map store holds: plain records with frame-named fields, no SQL and no storage types.
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "loopd/core/information.hpp"
+#include "loopd/keyframe/keyframe_key.hpp"
+#include "loopd/keyframe/keyframe_record.hpp"
+
+namespace loopd {
+
+/// @brief One drive (or one segment of it after an odometry reset) with its own odometry frame.
+struct SessionRecord {
+  SessionId id = 0;
+  std::int64_t first_utime = 0;  ///< [us] first keyframe's scan time (0 until known)
+  std::string sensor;            ///< lidar model preset the session was processed with
+  std::string source;            ///< where the data came from: "live udpm://...", "replay drive.lcmlog"
+  /// Alignment of the session's odometry frame in the map frame (identity for the first session).
+  Eigen::Isometry3d T_map_session = Eigen::Isometry3d::Identity();
+  bool anchored = true;  ///< false until a loop ties the session to the map
+};
+
+/// @brief A keyframe as stored: the record (pose, travel, features) and its corrected pose when the row was written.
+struct MapKeyframe {
+  KeyframeRecord record;  ///< record.features null: shed or unusable scan (pose only)
+  Eigen::Isometry3d T_map_sensor = Eigen::Isometry3d::Identity();
+};
+
+/// @brief How much of a keyframe for_each_keyframe() reads back.
+enum class KeyframeLoad {
+  kPose,        ///< key, utime, poses, residual, travel; features null
+  kDescriptor,  ///< + features with the descriptor and counts, prepared scan left empty (read it with get_prepared)
+  kFull,        ///< + the prepared scan
+};
+
+/// @brief One loop decision, as published on loop_event_t, plus the loop edge's information (to rebuild the graph).
+struct LoopRecord {
+  std::int64_t event_id = 0;
+  KeyframeKey query, match;
+  std::int64_t query_utime = 0, match_utime = 0;  ///< [us]
+  int status = 0;                                 ///< loop_event_t status: 1 accepted, 2 rejected
+  std::string stage, reason;
+  double gate_distance = 0.0, gate_radius = 0.0, descriptor_distance = -1.0;
+  double lcp_fraction = -1.0, icp_residual = -1.0, icp_fitness = -1.0, hungarian_consistency = -1.0, degeneracy = -1.0;
+  Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
+  Information6d information = Information6d::Zero();  ///< zero for rejected decisions
+};
+
+/// @brief The correction state after a revision: enough to publish the corrected map again and resume correcting.
+struct CorrectionRecord {
+  std::int64_t revision = 0;
+  std::int64_t loop_event_id = 0;  ///< the accepted loop that made this revision
+  std::string method;
+  Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();
+  std::vector<KeyframeKey> keys;                ///< every keyframe at that revision, in the order added
+  std::vector<Eigen::Isometry3d> T_map_sensor;  ///< corrected poses, by keys
+  std::vector<std::uint8_t> corrector_state;    ///< the corrector's own resumable state (opaque to the store)
+};
+
+/// @brief Totals for `loopd-map info` and status_t.
+struct MapStats {
+  std::int64_t sessions = 0, keyframes = 0, loops_accepted = 0, loops_rejected = 0;
+  std::int64_t bytes = 0;  ///< on disk (database + journal)
+};
+
+}  // namespace loopd

@@ -1,0 +1,104 @@
+#pragma once
+/// @file The map store: where keyframes, loop decisions and the correction state outlive the process. One interface,
+/// back ends behind it (SQLite now, PostgreSQL later); no SQL and no back-end header in this file. The detector never
+/// sees it: the engine writes to it and loads from it.
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "loopd/map/map_records.hpp"
+
+namespace loopd {
+
+/// @brief Outcome of a store operation: the engine must tell "retry later" from "the map is damaged".
+struct StoreStatus {
+  enum class Code {
+    kOk,
+    kNotFound,  ///< no such record
+    kBusy,      ///< locked by another process: retry
+    kCorrupt,   ///< damaged file or record, or a schema this build does not know
+    kIo,        ///< the disk refused (full, read-only, gone)
+    kInvalid,   ///< bad argument or configuration
+  };
+  Code code = Code::kOk;
+  std::string message;  ///< what happened, naming the map and the record
+  bool ok() const { return code == Code::kOk; }
+};
+
+/// @brief A value read from the store, or why it could not be.
+template <typename T>
+struct StoreResult {
+  StoreStatus status;
+  T value{};
+  bool ok() const { return status.ok(); }
+};
+
+/// @brief Where the map lives and how hard it holds on to what it was told.
+struct MapStoreConfig {
+  /// "FILE" or "sqlite://FILE" (an SQLite file, created when missing), "sqlite::memory:" (tests);
+  /// "postgresql://..." later.
+  std::string uri;
+  /// SQLite `synchronous` in WAL mode: "normal" (a committed record survives a crash of loopd; the last commits may be
+  /// lost on power loss) or "full" (survives power loss; an fsync per commit).
+  std::string synchronous = "normal";
+  bool read_only = false;  ///< open an existing map for reading only (loopd-map)
+  std::optional<std::string> validate() const;
+};
+
+/// @brief Persistent keyframes, loop decisions and correction state of one map (all its sessions).
+/// Not thread-safe: one thread (the engine's sequential stage, or a writer it owns) uses it at a time.
+class MapStore {
+ public:
+  MapStore() = default;
+  MapStore(const MapStore&) = delete;
+  MapStore& operator=(const MapStore&) = delete;
+  virtual ~MapStore() = default;
+
+  /// @brief The URI the store was opened with (for messages).
+  virtual const std::string& uri() const = 0;
+
+  /// @brief Groups the writes until commit() into one transaction (all or nothing on a crash).
+  virtual StoreStatus begin() = 0;
+  virtual StoreStatus commit() = 0;
+  virtual StoreStatus rollback() = 0;
+
+  /// @brief Adds or replaces a session.
+  virtual StoreStatus put_session(const SessionRecord& session) = 0;
+  virtual StoreResult<std::vector<SessionRecord>> sessions() = 0;
+
+  /// @brief Adds a keyframe (its key must be new): pose, travel, and the features when present.
+  virtual StoreStatus put_keyframe(const MapKeyframe& keyframe) = 0;
+  /// @brief Every keyframe of `session` (all sessions when nullopt) in key order, read as deep as `load` says.
+  virtual StoreStatus for_each_keyframe(std::optional<SessionId> session, KeyframeLoad load, const std::function<void(MapKeyframe&&)>& visit) = 0;
+  /// @brief The prepared scan of one keyframe (kNotFound when it has none).
+  virtual StoreResult<PreparedScan> get_prepared(const KeyframeKey& key) = 0;
+
+  /// @brief Adds a loop decision (its event id must be new).
+  virtual StoreStatus put_loop(const LoopRecord& loop) = 0;
+  /// @brief Every decision in event order; accepted_only: only accepted loops.
+  virtual StoreStatus for_each_loop(bool accepted_only, const std::function<void(LoopRecord&&)>& visit) = 0;
+
+  /// @brief Replaces the stored correction state.
+  virtual StoreStatus put_correction(const CorrectionRecord& correction) = 0;
+  /// @brief The newest correction state (value nullopt when the map has none yet).
+  virtual StoreResult<std::optional<CorrectionRecord>> correction() = 0;
+
+  virtual StoreResult<MapStats> stats() = 0;
+  /// @brief The back end's own integrity check plus the map's invariants (every loop names stored keyframes, keys
+  /// consecutive within a session, correction keys stored); kCorrupt with the first problems found.
+  virtual StoreStatus check() = 0;
+};
+
+/// @brief A store opened by open_map_store, or why it could not be opened.
+struct OpenedMapStore {
+  std::unique_ptr<MapStore> store;
+  StoreStatus status;
+};
+
+/// @brief Opens (or creates) the map `config.uri` names. A map of an unknown schema version is refused (kCorrupt).
+OpenedMapStore open_map_store(const MapStoreConfig& config);
+
+}  // namespace loopd
