@@ -51,7 +51,7 @@ LoopdEngine::~LoopdEngine() {
 
 bool LoopdEngine::push_scan(std::int64_t utime, PointCloud cloud, double arrival_s) {
   std::size_t finite = 0;
-  for (const auto& p : cloud.points) finite += p.allFinite() ? 1 : 0;
+  for (const auto& p : cloud.points) finite += p.allFinite() ? 1u : 0u;
   const bool too_large = static_cast<std::int64_t>(cloud.size()) > config_.max_points_per_scan;
   const ClockVerdict verdict = (finite == 0 || too_large) ? ClockVerdict::kStale : scan_clock_.check(utime, arrival_s);
   const bool jumped = verdict == ClockVerdict::kJumpBack || verdict == ClockVerdict::kJumpForward;

@@ -36,7 +36,7 @@ class WireWalker {
     if (n < 0) return fail_at(at, field, "= " + std::to_string(n) + " is negative"), 0;
     if (n > max) return fail_at(at, field, "= " + std::to_string(n) + " exceeds the limit " + std::to_string(max)), 0;
     if (static_cast<std::size_t>(n) > remaining() / (width * static_cast<std::size_t>(arrays)))
-      return fail_at(at, field, "= " + std::to_string(n) + " needs " + std::to_string(static_cast<std::size_t>(n) * width * arrays) + " bytes, " +
+      return fail_at(at, field, "= " + std::to_string(n) + " needs " + std::to_string(static_cast<std::size_t>(n) * width * static_cast<std::size_t>(arrays)) + " bytes, " +
                                     std::to_string(remaining()) + " left"),
              0;
     return n;

@@ -14,10 +14,11 @@ namespace {
 /// query_index (k = 0) or match_index (k = 1) of a loop line: a non-negative int, below num_poses when that is >= 0.
 std::optional<std::string> check_loop_index(const std::vector<double>& v, int k, int num_poses) {
   const std::string name = k == 0 ? "query_index" : "match_index";
-  if (v[k] != std::floor(v[k]) || v[k] < 0) return name + " must be a non-negative integer";
-  if (v[k] > static_cast<double>(std::numeric_limits<int>::max())) return name + " " + std::to_string(v[k]) + " is out of range";
-  if (num_poses >= 0 && v[k] >= num_poses)
-    return name + " " + std::to_string(static_cast<long>(v[k])) + " is out of range (trajectory has " + std::to_string(num_poses) + " poses)";
+  const double value = v[static_cast<std::size_t>(k)];
+  if (value != std::floor(value) || value < 0) return name + " must be a non-negative integer";
+  if (value > static_cast<double>(std::numeric_limits<int>::max())) return name + " " + std::to_string(value) + " is out of range";
+  if (num_poses >= 0 && value >= num_poses)
+    return name + " " + std::to_string(static_cast<long>(value)) + " is out of range (trajectory has " + std::to_string(num_poses) + " poses)";
   return std::nullopt;
 }
 

@@ -167,7 +167,7 @@ void descriptor_from_signature(const std::vector<std::uint32_t>& signature, cons
   const int rows = config.num_planes(), cols = config.num_bins();
   Eigen::MatrixXd A(rows, cols);
   for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c) A(r, c) = static_cast<double>(signature[static_cast<std::size_t>(r) * cols + c]);
+    for (int c = 0; c < cols; ++c) A(r, c) = static_cast<double>(signature[static_cast<std::size_t>(r) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(c)]);
   if (A.sum() <= 0) {
     result->ok = false;
     result->error = "empty signature matrix";

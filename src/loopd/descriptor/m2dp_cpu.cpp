@@ -35,7 +35,7 @@ inline __attribute__((always_inline)) void codes_fixed(const float* __restrict x
                                                        const float* pl, const float* params, std::uint8_t* __restrict bin) {
   const float e1x = pl[0], e1y = pl[1], e1z = pl[2], d1 = pl[3];
   const float e2x = pl[4], e2y = pl[5], e2z = pl[6], d2 = pl[7];
-  float edge[L], tq[Q + 1];
+  float edge[static_cast<std::size_t>(L)], tq[static_cast<std::size_t>(Q + 1)];
   for (int k = 0; k < L - 1; ++k) edge[k] = params[k];
   for (int j = 0; j < Q; ++j) tq[j] = params[L - 1 + j];
   constexpr float kT = 4.0f * (Q + 1), kHalf = 2.0f * (Q + 1), kLast = 2.0f * (Q + 1) - 1.0f;
@@ -200,13 +200,13 @@ M2dpResult compute_m2dp_cpu(const std::vector<Eigen::Vector3f>& points, const M2
   std::vector<float> xs(static_cast<std::size_t>(n)), ys(static_cast<std::size_t>(n)), zs(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
     const Eigen::Vector3f& p = points[static_cast<std::size_t>(i) * stride];
-    xs[i] = p.x() - c.x();
-    ys[i] = p.y() - c.y();
-    zs[i] = p.z() - c.z();
+    xs[static_cast<std::size_t>(i)] = p.x() - c.x();
+    ys[static_cast<std::size_t>(i)] = p.y() - c.y();
+    zs[static_cast<std::size_t>(i)] = p.z() - c.z();
   }
   const std::vector<float> planes = plane_table(config, f.axes, f.centroid - c.cast<double>());
   const std::vector<float> params = bin_params(config, f.max_r2);
-  std::vector<std::uint32_t> signature(static_cast<std::size_t>(num_planes) * num_bins, 0u);
+  std::vector<std::uint32_t> signature(static_cast<std::size_t>(num_planes) * static_cast<std::size_t>(num_bins), 0u);
   const int threads = config.num_threads > 0 ? config.num_threads : omp_get_max_threads();
   const int num_blocks = (n + kBinBlock - 1) / kBinBlock;
 
@@ -220,7 +220,7 @@ M2dpResult compute_m2dp_cpu(const std::vector<Eigen::Vector3f>& points, const M2
       for (int j = 0; j < num_planes; ++j)
         bin_and_count(xs.data() + begin, ys.data() + begin, zs.data() + begin, m, planes.data() + static_cast<std::size_t>(j) * M2DP_PLANE_STRIDE,
                       params.data(), config.num_rings_l, config.num_sectors_t, &scratch,
-                      local.data() + static_cast<std::size_t>(j) * num_bins);
+                      local.data() + static_cast<std::size_t>(j) * static_cast<std::size_t>(num_bins));
     }
 #pragma omp critical(m2dp_signature_sum)
     for (std::size_t b = 0; b < signature.size(); ++b) signature[b] += local[b];

@@ -35,7 +35,7 @@ KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
   KeyframeFeatures f;
   f.input_points = scan.size();
   std::size_t removed = 0;
-  for (const Eigen::Vector3f& p : scan.points) removed += p.allFinite() ? 0 : 1;
+  for (const Eigen::Vector3f& p : scan.points) removed += p.allFinite() ? 0u : 1u;
   f.invalid_points = removed;
   // Copy the finite points only when there are others (a clean scan, the usual case, is used as it is).
   PointCloud filtered;

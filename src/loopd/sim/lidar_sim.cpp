@@ -348,7 +348,7 @@ PointCloud simulate_scan(const Town& town, const LidarModel& model, const Eigen:
   }
 
   std::size_t count = 0;
-  for (float v : range) count += std::isnan(v) ? 0 : 1;
+  for (float v : range) count += std::isnan(v) ? 0u : 1u;
   cloud.points.resize(count);
   cloud.intensity.resize(count);
   cloud.ring.resize(count);
