@@ -45,6 +45,10 @@ struct MapStoreConfig {
   /// lost on power loss) or "full" (survives power loss; an fsync per commit).
   std::string synchronous = "normal";
   bool read_only = false;  ///< open an existing map for reading only (loopd-map)
+  int busy_timeout_ms = 5000;  ///< how long a write waits for another process's lock before kBusy [ms]
+  /// Cap on the map's size in pages of 4 KiB (SQLite `max_page_count`; 0: no cap beyond SQLite's own). A write past it
+  /// fails with kIo as on a full disk: tests simulate a full disk with it.
+  std::int64_t max_pages = 0;
   std::optional<std::string> validate() const;
 };
 
@@ -76,6 +80,12 @@ class MapStore {
   /// @brief The prepared scan of one keyframe (kNotFound when it has none).
   virtual StoreResult<PreparedScan> get_prepared(const KeyframeKey& key) = 0;
 
+  /// @brief Marks a keyframe decided: every decision it made (and its correction) is stored.
+  virtual StoreStatus mark_decided(const KeyframeKey& key) = 0;
+  /// @brief Removes the keyframes not marked decided and the decisions they made (a stop cut them off; they are
+  /// processed again on resume). Returns how many keyframes were removed.
+  virtual StoreResult<std::int64_t> drop_undecided() = 0;
+
   /// @brief Adds a loop decision (its event id must be new).
   virtual StoreStatus put_loop(const LoopRecord& loop) = 0;
   /// @brief Every decision in event order; accepted_only: only accepted loops.
@@ -100,5 +110,8 @@ struct OpenedMapStore {
 
 /// @brief Opens (or creates) the map `config.uri` names. A map of an unknown schema version is refused (kCorrupt).
 OpenedMapStore open_map_store(const MapStoreConfig& config);
+
+/// @brief "kOk", "kNotFound", "kBusy", "kCorrupt", "kIo", "kInvalid" (messages, tests).
+const char* to_string(StoreStatus::Code code);
 
 }  // namespace loopd

@@ -1,0 +1,14 @@
+#pragma once
+/// @file The SQLite back end of the map store (open_map_store() dispatches to it). No SQLite header here.
+#include "loopd/map/map_store.hpp"
+
+namespace loopd {
+
+/// @brief Schema version of the SQLite map (`PRAGMA user_version`); a map with another version is refused.
+inline constexpr int kSqliteMapSchemaVersion = 1;
+
+/// @brief Opens or creates the SQLite map `config.uri` names ("FILE", "sqlite://FILE" or "sqlite::memory:"). WAL
+/// journal, `synchronous` from the config, foreign keys on; a map of another schema version is refused (kCorrupt).
+OpenedMapStore open_sqlite_map_store(const MapStoreConfig& config);
+
+}  // namespace loopd
