@@ -43,9 +43,18 @@ class Writer {
     f32(v.y());
     f32(v.z());
   }
+  /// Count, then the 3n floats' bits as four byte planes (all lowest bytes first): exponent and sign bytes of nearby
+  /// points repeat, so zstd finds them (a byte shuffle; the bits are unchanged).
   void points(const std::vector<Eigen::Vector3f>& pts) {
     size(pts.size());
-    for (const auto& p : pts) vec3(p);
+    const std::size_t floats = 3 * pts.size();
+    const std::size_t at = out_.size();
+    out_.resize(at + 4 * floats);
+    for (std::size_t k = 0; k < floats; ++k) {
+      std::uint32_t bits = 0;
+      std::memcpy(&bits, &pts[k / 3][static_cast<Eigen::Index>(k % 3)], sizeof bits);
+      for (std::size_t b = 0; b < 4; ++b) out_[at + b * floats + k] = static_cast<std::uint8_t>(bits >> (8 * b));
+    }
   }
   std::vector<std::uint8_t>& bytes() { return out_; }
 
@@ -125,9 +134,17 @@ class Reader {
     const float x = f32(field), y = f32(field), z = f32(field);
     return {x, y, z};
   }
+  /// The inverse of Writer::points.
   std::vector<Eigen::Vector3f> points(std::size_t cap, const char* field) {
     std::vector<Eigen::Vector3f> out(count(12, cap, field));
-    for (auto& p : out) p = vec3(field);
+    const std::size_t floats = 3 * out.size();
+    if (!ok() || floats == 0) return out;
+    for (std::size_t k = 0; k < floats; ++k) {
+      std::uint32_t bits = 0;
+      for (std::size_t b = 0; b < 4; ++b) bits |= static_cast<std::uint32_t>(data_[pos_ + b * floats + k]) << (8 * b);
+      std::memcpy(&out[k / 3][static_cast<Eigen::Index>(k % 3)], &bits, sizeof bits);
+    }
+    pos_ += 4 * floats;
     return out;
   }
 
@@ -292,9 +309,18 @@ std::vector<std::uint8_t> encode_features(const KeyframeFeatures& features, int 
   std::vector<std::uint8_t> out = std::move(header.bytes());
   const std::size_t bound = ZSTD_compressBound(payload.size());
   out.resize(kHeaderBytes + bound);
-  const std::size_t n = ZSTD_compress(out.data() + kHeaderBytes, bound, payload.data(), payload.size(), zstd_level);
-  // ZSTD_compress fails only on a too small buffer or a bad level; the bound and a clamped level rule both out.
-  out.resize(kHeaderBytes + (ZSTD_isError(n) ? 0 : n));
+  // With a content checksum (4 bytes): a flipped bit anywhere in the frame is refused, not decoded into other numbers.
+  ZSTD_CCtx* cctx = ZSTD_createCCtx();
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, zstd_level);
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
+  std::size_t n = 0;
+  if (cctx) {
+    n = ZSTD_compress2(cctx, out.data() + kHeaderBytes, bound, payload.data(), payload.size());
+    if (ZSTD_isError(n)) n = 0;
+  }
+  ZSTD_freeCCtx(cctx);
+  // Fails only without memory (the bound rules out a short buffer): the blob then holds no frame and decodes as damaged.
+  out.resize(kHeaderBytes + n);
   return out;
 }
 

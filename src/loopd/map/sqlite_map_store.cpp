@@ -52,7 +52,10 @@ void append_doubles(std::vector<std::uint8_t>& out, const double* v, std::size_t
 }
 
 /// @brief An isometry as 12 doubles (the 3x4 matrix, column-major): bit-exact, unlike a quaternion.
-void append_pose(std::vector<std::uint8_t>& out, const Eigen::Isometry3d& T) { append_doubles(out, T.matrix().data(), 12); }
+void append_pose(std::vector<std::uint8_t>& out, const Eigen::Isometry3d& T) {
+  const Eigen::Matrix<double, 3, 4> top = T.matrix().topRows<3>();
+  append_doubles(out, top.data(), 12);
+}
 
 std::vector<std::uint8_t> pose_blob(const Eigen::Isometry3d& T) {
   std::vector<std::uint8_t> out;
@@ -61,8 +64,10 @@ std::vector<std::uint8_t> pose_blob(const Eigen::Isometry3d& T) {
 }
 
 Eigen::Isometry3d read_pose(const std::uint8_t* p) {
+  Eigen::Matrix<double, 3, 4> top;
+  std::memcpy(top.data(), p, 12 * sizeof(double));
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  std::memcpy(T.matrix().data(), p, 12 * sizeof(double));
+  T.matrix().topRows<3>() = top;
   return T;
 }
 
