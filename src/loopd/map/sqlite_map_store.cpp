@@ -296,9 +296,9 @@ class SqliteMapStore final : public MapStore {
 
 const char* sql_of(int s) {
   static const char* const kSql[] = {
-      "INSERT INTO sessions (id, first_utime, sensor, source, T_map_session, anchored) VALUES (?, ?, ?, ?, ?, ?) "
-      "ON CONFLICT (id) DO UPDATE SET first_utime = excluded.first_utime, sensor = excluded.sensor, source = excluded.source, "
-      "T_map_session = excluded.T_map_session, anchored = excluded.anchored",
+      ("INSERT INTO sessions (id, first_utime, sensor, source, T_map_session, anchored) VALUES (?, ?, ?, ?, ?, ?) "
+       "ON CONFLICT (id) DO UPDATE SET first_utime = excluded.first_utime, sensor = excluded.sensor, source = excluded.source, "
+       "T_map_session = excluded.T_map_session, anchored = excluded.anchored"),
       "SELECT id, first_utime, sensor, source, T_map_session, anchored FROM sessions ORDER BY id",
       "INSERT INTO keyframes (" LOOPD_KEYFRAME_COLUMNS ", features) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
       "SELECT " LOOPD_KEYFRAME_COLUMNS " FROM keyframes WHERE ?1 IS NULL OR session = ?1 ORDER BY session, idx",
@@ -308,8 +308,8 @@ const char* sql_of(int s) {
       "UPDATE keyframes SET decided = 1 WHERE session = ? AND idx = ?",
       "INSERT INTO loops VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
       "SELECT * FROM loops WHERE ?1 = 0 OR status = 1 ORDER BY event_id",
-      "INSERT OR REPLACE INTO correction (id, revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state) "
-      "VALUES (1, ?, ?, ?, ?, ?, ?, ?)",
+      ("INSERT OR REPLACE INTO correction (id, revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state) "
+       "VALUES (1, ?, ?, ?, ?, ?, ?, ?)"),
       "SELECT revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state FROM correction WHERE id = 1",
   };
   return kSql[s];
@@ -521,8 +521,8 @@ StoreResult<std::int64_t> SqliteMapStore::drop_undecided() {
   // The decisions the undecided keyframes made, a correction one of those decisions made, then the keyframes: all or
   // nothing (a savepoint nests in the caller's transaction when there is one).
   const char* const steps[] = {
-      "DELETE FROM correction WHERE loop_event_id IN (SELECT event_id FROM loops JOIN keyframes ON session = query_session AND "
-      "idx = query_idx WHERE decided = 0)",
+      ("DELETE FROM correction WHERE loop_event_id IN (SELECT event_id FROM loops JOIN keyframes ON session = query_session AND "
+       "idx = query_idx WHERE decided = 0)"),
       "DELETE FROM loops WHERE EXISTS (SELECT 1 FROM keyframes WHERE session = query_session AND idx = query_idx AND decided = 0)",
       "DELETE FROM keyframes WHERE decided = 0",
   };
@@ -678,14 +678,14 @@ StoreResult<MapStats> SqliteMapStore::stats() {
 std::vector<std::string> SqliteMapStore::invariant_problems() {
   std::vector<std::string> problems;
   const char* const queries[] = {
-      "SELECT 'loop event ' || event_id || ' names keyframe ' || query_session || '/' || query_idx || ', which is not stored' FROM loops "
-      "WHERE NOT EXISTS (SELECT 1 FROM keyframes WHERE session = query_session AND idx = query_idx) LIMIT 10",
-      "SELECT 'loop event ' || event_id || ' names keyframe ' || match_session || '/' || match_idx || ', which is not stored' FROM loops "
-      "WHERE NOT EXISTS (SELECT 1 FROM keyframes WHERE session = match_session AND idx = match_idx) LIMIT 10",
-      "SELECT 'session ' || session || ': keyframe indices are not 0..' || (count(*) - 1) || ' (min ' || min(idx) || ', max ' || "
-      "max(idx) || ')' FROM keyframes GROUP BY session HAVING min(idx) <> 0 OR max(idx) <> count(*) - 1 LIMIT 10",
-      "SELECT 'keyframe ' || session || '/' || idx || ' names session ' || session || ', which is not stored' FROM keyframes "
-      "WHERE NOT EXISTS (SELECT 1 FROM sessions WHERE id = session) LIMIT 10",
+      ("SELECT 'loop event ' || event_id || ' names keyframe ' || query_session || '/' || query_idx || ', which is not stored' FROM loops "
+       "WHERE NOT EXISTS (SELECT 1 FROM keyframes WHERE session = query_session AND idx = query_idx) LIMIT 10"),
+      ("SELECT 'loop event ' || event_id || ' names keyframe ' || match_session || '/' || match_idx || ', which is not stored' FROM loops "
+       "WHERE NOT EXISTS (SELECT 1 FROM keyframes WHERE session = match_session AND idx = match_idx) LIMIT 10"),
+      ("SELECT 'session ' || session || ': keyframe indices are not 0..' || (count(*) - 1) || ' (min ' || min(idx) || ', max ' || "
+       "max(idx) || ')' FROM keyframes GROUP BY session HAVING min(idx) <> 0 OR max(idx) <> count(*) - 1 LIMIT 10"),
+      ("SELECT 'keyframe ' || session || '/' || idx || ' names session ' || session || ', which is not stored' FROM keyframes "
+       "WHERE NOT EXISTS (SELECT 1 FROM sessions WHERE id = session) LIMIT 10"),
   };
   for (const char* sql : queries) {
     Statement st;
