@@ -5,8 +5,10 @@
 namespace loopd {
 
 std::optional<std::string> AssociationConfig::validate() const {
-  if (!(tolerance > 0.0)) return "association.tolerance must be > 0 [s]";
-  if (!(hold_time > 0.0)) return "association.hold_time must be > 0 [s]";
+  // Both become int64 microseconds (seconds * 1e6); 1e6 s keeps that far inside the int64 range.
+  constexpr double kMaxSeconds = 1e6;
+  if (!(tolerance > 0.0 && tolerance <= kMaxSeconds)) return "association.tolerance must be > 0 and <= 1e6 [s]";
+  if (!(hold_time > 0.0 && hold_time <= kMaxSeconds)) return "association.hold_time must be > 0 and <= 1e6 [s]";
   if (max_pending_scans < 1) return "association.max_pending_scans must be >= 1";
   if (max_poses < 2) return "association.max_poses must be >= 2";
   return std::nullopt;

@@ -102,3 +102,31 @@ TEST_CASE("residuals of the poses between two scans are summed for the correctio
   REQUIRE(second.size() == 1);
   CHECK(second[0].residual_sum == Approx(0.5));
 }
+
+TEST_CASE("tolerance and hold_time are bounded so that they fit int64 microseconds (issue 19, -Wconversion survey)") {
+  // Both are turned into int64 microseconds (static_cast<std::int64_t>(seconds * 1e6)). 1e13 s passed validate() before,
+  // and 1e19 us does not fit an int64: the cast is undefined (x86 gives INT64_MIN, so every interpolated scan was
+  // dropped). The limit is 1e6 s (about 11.6 days, 1e12 us).
+  AssociationConfig cfg;
+  REQUIRE_FALSE(cfg.validate());
+  for (double seconds : {1e13, 1e300, HUGE_VAL}) {
+    AssociationConfig t = cfg;
+    t.tolerance = seconds;
+    CHECK(t.validate());
+    AssociationConfig h = cfg;
+    h.hold_time = seconds;
+    CHECK(h.validate());
+  }
+  // At the limit a scan between two poses 1000 s apart is still interpolated (the int64 tolerance is 1e12 us).
+  AssociationConfig wide = cfg;
+  wide.tolerance = 1e6;
+  wide.hold_time = 1e6;
+  REQUIRE_FALSE(wide.validate());
+  ScanPoseAssociator a(wide);
+  REQUIRE(a.add_pose(pose_at(1'000'000, 0.0, 0.0)));
+  REQUIRE(a.add_pose(pose_at(1'001'000'000, 10.0, 0.0)));
+  REQUIRE(a.add_scan(501'000'000, small_cloud(), 0.0));
+  auto out = a.poll(0.0, false);
+  REQUIRE(out.size() == 1);
+  CHECK(out[0].pose.T_world_sensor.translation().x() == Approx(5.0));
+}
