@@ -31,7 +31,7 @@ void print_summary(const loopd::RunSummary& s, bool replay) {
 int main(int argc, char** argv) {
   CLI::App app{"loopd: lidar loop-closure daemon. Listens for scans and odometry poses on LCM, detects and verifies loops\n"
                "(M2DP + plane-based 4PCS + GICP + Hungarian check), publishes loop events and corrected trajectories."};
-  std::string lcm_url, config_path, replay_log, output_log, sensor;
+  std::string lcm_url, config_path, replay_log, output_log, sensor, map_path;
   int threads = -1;
   bool print_config = false, quiet = false;
   app.set_version_flag("--version", std::string("loopd ") + LOOPD_VERSION);
@@ -41,6 +41,8 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads (0 = hardware threads; overrides the config)");
   app.add_option("--replay", replay_log, "process an lcm-logger file as fast as possible instead of listening live");
   app.add_option("--output", output_log, "with --replay: write every published message to this lcm-logger file");
+  app.add_option("--map", map_path, "map store (SQLite file, created when missing): keyframes, loops and corrections outlive the "
+                                    "process and a restart resumes (overrides map.path)");
   app.add_flag("--print-config", print_config, "print the effective configuration as YAML and exit");
   app.add_flag("--quiet", quiet, "no log line per accepted loop");
   CLI11_PARSE(app, argc, argv);
@@ -57,6 +59,7 @@ int main(int argc, char** argv) {
   }
   if (!lcm_url.empty()) config.node.lcm_url = lcm_url;
   if (threads >= 0) config.engine.num_threads = threads;
+  if (!map_path.empty()) config.node.map.uri = map_path;
   config.node.quiet = quiet;
   if (auto e = config.engine.validate()) {
     std::cerr << "loopd: bad config: " << *e << std::endl;

@@ -229,6 +229,8 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("input_queue_capacity", n.input_queue_capacity);
   b.field("log_every_n", n.log_every_n);
   b.field("status_period", n.status_period);
+  b.field("map.path", n.map.uri);
+  b.field("map.synchronous", n.map.synchronous);
 
   EngineConfig& e = c.engine;
   b.field("threads", e.num_threads);

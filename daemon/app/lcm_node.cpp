@@ -18,6 +18,7 @@
 #include "bounded_decode.hpp"
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
+#include "map_writer.hpp"
 #include "output_messages.hpp"
 
 namespace loopd {
@@ -240,6 +241,58 @@ void fill_summary(RunSummary* summary, LoopdEngine& engine, InputHandler& h) {
   summary->dropped_input = h.scan_.dropped + h.pose_.dropped;
 }
 
+/// The map store of a run, when one is configured: opened before the engine, resumed into it, written by MapWriter.
+struct MapSession {
+  std::unique_ptr<MapStore> store;
+  std::unique_ptr<MapWriter> writer;
+  bool holds_keyframes = false;
+};
+
+/// Opens node.map (nothing when no map is configured). False, with the reason printed, when the map cannot be used.
+bool open_map(const NodeConfig& node, MapSession* map) {
+  if (node.map.uri.empty()) return true;
+  OpenedMapStore opened = open_map_store(node.map);
+  if (!opened.status.ok()) {
+    std::cerr << "loopd: cannot use the map: " << opened.status.message << std::endl;
+    return false;
+  }
+  map->store = std::move(opened.store);
+  const StoreResult<MapStats> stats = map->store->stats();
+  map->holds_keyframes = stats.ok() && stats.value.keyframes > 0;
+  return true;
+}
+
+/// The session this process writes (one per map until sessions arrive): created on a new map.
+bool ensure_session(MapStore& store, const std::string& sensor, const std::string& source) {
+  const StoreResult<std::vector<SessionRecord>> sessions = store.sessions();
+  StoreStatus status = sessions.status;
+  if (status.ok() && sessions.value.empty()) {
+    SessionRecord s;
+    s.sensor = sensor;
+    s.source = source;
+    status = store.put_session(s);
+  }
+  if (!status.ok()) std::cerr << "loopd: cannot use the map: " << status.message << std::endl;
+  return status.ok();
+}
+
+/// Brings the engine to where the map stopped. False, with the reason printed, when it cannot.
+bool resume_from_map(MapSession& map, LoopdEngine& engine, bool skip_stored_keyframes, const std::string& sensor, const std::string& source) {
+  if (!map.store) return true;
+  if (!ensure_session(*map.store, sensor, source)) return false;
+  const ResumeSummary r = engine.resume(*map.store, skip_stored_keyframes);
+  if (!r.ok) {
+    std::cerr << "loopd: " << r.error << std::endl;
+    return false;
+  }
+  std::fprintf(stderr, "loopd: map %s: %lld keyframes, %lld decisions, correction revision %lld restored in %.2f s", map.store->uri().c_str(),
+               static_cast<long long>(r.keyframes), static_cast<long long>(r.decisions), static_cast<long long>(r.revision), r.seconds);
+  if (r.dropped_undecided > 0) std::fprintf(stderr, "; %lld keyframe(s) cut off by the stop are processed again", static_cast<long long>(r.dropped_undecided));
+  if (!r.corrections.empty()) std::fprintf(stderr, "; %zu correction(s) cut off by the stop made again", r.corrections.size());
+  std::fprintf(stderr, "\n");
+  return true;
+}
+
 }  // namespace
 
 std::optional<std::string> NodeConfig::validate() const {
@@ -249,6 +302,8 @@ std::optional<std::string> NodeConfig::validate() const {
   if (input_queue_capacity < 1) return "input_queue_capacity must be >= 1";
   if (log_every_n < 1) return "log_every_n must be >= 1";
   if (!(status_period > 0.0)) return "status_period must be > 0 [s]";
+  if (!map.uri.empty())
+    if (auto e = map.validate()) return "map: " + *e;
   return std::nullopt;
 }
 
@@ -285,10 +340,14 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   const auto model = lidar_model_from_name(engine_config.detector.sensor);
   check_receive_buffer(node.lcm_url, model ? model->rays_per_scan() : 130000);
   const double start = wall_s();
+  MapSession map;
+  if (!open_map(node, &map)) return 2;
   OutputSink sink(node, &lcm, nullptr, false);
+  if (map.store) map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n);
   EngineConfig live_config = engine_config;
   live_config.detector.parallel_candidates = true;  // spare cores shorten the latency tail; same decisions
-  LoopdEngine engine(live_config, &sink);
+  LoopdEngine engine(live_config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
+  if (!resume_from_map(map, engine, false, engine_config.detector.sensor, "live " + node.lcm_url)) return 2;
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
 
@@ -367,8 +426,11 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
     std::cerr << "loopd: " << error << std::endl;
     return 2;
   }
+  MapSession map;
+  if (!open_map(node, &map)) return 2;
   LogWriter writer;
-  if (!output_log.empty() && !writer.open(output_log, &error)) {
+  // A replay resumed on its map adds the rest of the events to the output of the run that stopped.
+  if (!output_log.empty() && !writer.open(output_log, &error, map.holds_keyframes)) {
     std::cerr << "loopd: " << error << std::endl;
     return 2;
   }
@@ -384,7 +446,9 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   EngineConfig config = engine_config;
   config.block_when_full = true;  // replay never sheds: it waits for the workers
   OutputSink sink(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
-  LoopdEngine engine(config, &sink);
+  if (map.store) map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n);
+  LoopdEngine engine(config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
+  if (!resume_from_map(map, engine, true, engine_config.detector.sensor, "replay " + input_log)) return 2;
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
   std::int64_t last_data_utime = 0, first_data_utime = 0, next_status_utime = 0;

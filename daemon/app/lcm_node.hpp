@@ -4,6 +4,7 @@
 #include <optional>
 #include <string>
 
+#include "loopd/map/map_store.hpp"
 #include "loopd_engine.hpp"
 
 namespace loopd {
@@ -20,6 +21,8 @@ struct NodeConfig {
   int log_every_n = 100;           ///< a repeated anomaly is logged on its 1st, (N+1)th, ... occurrence
   double status_period = 1.0;      ///< [s] status_t period
   bool quiet = false;              ///< no per-loop log lines
+  /// The map store (map.path / --map): empty uri = everything in memory, as before.
+  MapStoreConfig map;
   std::optional<std::string> validate() const;
 };
 

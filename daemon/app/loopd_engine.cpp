@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <pthread.h>
 #include <string>
 
@@ -125,6 +126,10 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
   for (auto& s : scans) {
     residual_since_keyframe_ += s.residual_sum;
     if (!selector_.accept(s.pose.T_world_sensor, s.utime)) continue;
+    if (skip_if_stored(s.utime)) {
+      residual_since_keyframe_ = 0.0;
+      continue;
+    }
     Job job;
     job.sequence = next_sequence_++;
     job.input.key = KeyframeKey{session_, next_keyframe_index_++};
@@ -135,6 +140,36 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     job.cloud = std::move(s.cloud);
     submit(std::move(job));
   }
+}
+
+ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes) {
+  ResumeSummary r = resume_detector(store, detector_);
+  if (!r.ok) return r;
+  next_keyframe_index_ = r.next_index;
+  stored_utimes_ = r.utimes;
+  skip_stored_ = skip_stored_keyframes;
+  for (const CorrectionOutput& c : r.corrections) sink_->on_correction(c);
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
+  stats_.loops_accepted = detector_.loops_accepted();
+  stats_.loops_rejected = detector_.loops_rejected();
+  return r;
+}
+
+bool LoopdEngine::skip_if_stored(std::int64_t utime) {
+  // Replay resume: the same drive selects the same keyframes again; the first ones are already in the map.
+  if (!skip_stored_ || next_stored_ >= stored_utimes_.size()) return false;
+  if (stored_utimes_[next_stored_] == utime) {
+    ++next_stored_;
+    ++keyframes_skipped_;
+    return true;
+  }
+  std::fprintf(stderr,
+               "loopd: warning: the map's keyframe %zu was made at utime %lld, this drive's at %lld: not the drive the map was made "
+               "from; its keyframes are added after the map's\n",
+               next_stored_, static_cast<long long>(stored_utimes_[next_stored_]), static_cast<long long>(utime));
+  skip_stored_ = false;
+  return false;
 }
 
 void LoopdEngine::submit(Job job) {
@@ -206,8 +241,11 @@ void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shar
     }
     space_cv_.notify_one();
     // Each decision goes out as soon as it is made; an accepted loop's correction follows.
-    DetectorOutput out = detector_.add_keyframe(item.first, item.second, [this](const LoopDecision& d) { sink_->on_decision(d); });
+    DetectorOutput out = detector_.add_keyframe(
+        item.first, item.second, [this](const LoopDecision& d) { sink_->on_decision(d); },
+        [this](const KeyframeRecord& k, const Eigen::Isometry3d& T_map_sensor) { sink_->on_keyframe(k, T_map_sensor); });
     if (out.correction) sink_->on_correction(*out.correction);
+    sink_->on_keyframe_decided(item.first.key);
     {
       std::lock_guard<std::mutex> s(stats_mutex_);
       stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());

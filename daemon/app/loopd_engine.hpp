@@ -13,6 +13,7 @@
 
 #include "loopd/pipeline/keyframe_selector.hpp"
 #include "loopd/pipeline/loop_detector.hpp"
+#include "map_resume.hpp"
 #include "clock_watch.hpp"
 #include "odometry_reset_filter.hpp"
 #include "scan_loss_estimator.hpp"
@@ -38,8 +39,12 @@ struct EngineConfig {
 class EngineSink {
  public:
   virtual ~EngineSink() = default;
+  /// @brief A keyframe entered the map (before any of its decisions).
+  virtual void on_keyframe(const KeyframeRecord& /*keyframe*/, const Eigen::Isometry3d& /*T_map_sensor*/) {}
   virtual void on_decision(const LoopDecision& decision) = 0;
   virtual void on_correction(const CorrectionOutput& correction) = 0;
+  /// @brief Every decision of `keyframe` (and its correction, if any) has been delivered.
+  virtual void on_keyframe_decided(const KeyframeKey& /*keyframe*/) {}
 };
 
 /// @brief Counters reported in status_t.
@@ -86,8 +91,15 @@ class LoopdEngine {
   EngineStats stats() const;
   /// @brief The current map<-odometry correction (identity before the first loop).
   Eigen::Isometry3d T_map_odom() const;
+  /// @brief Before any input: continues from what `store` holds (the detector as it was, keyframe numbering after the
+  /// stored ones; corrections the stop cut off are made again and go to the sink). With skip_stored_keyframes (replay
+  /// of the same drive) the keyframes the map already holds are recognised by their scan times and not processed again.
+  ResumeSummary resume(MapStore& store, bool skip_stored_keyframes);
+  /// @brief Keyframes recognised as already in the map and skipped (replay resume).
+  std::int64_t keyframes_skipped() const { return keyframes_skipped_.load(); }
 
  private:
+  bool skip_if_stored(std::int64_t utime);
   struct Job {
     std::int64_t sequence = 0;  ///< order of submission: the sequential stage takes keyframes in this order
     KeyframeInput input;
@@ -119,6 +131,10 @@ class LoopdEngine {
   SessionId session_ = 0;               ///< one session per process until the map store brings sessions
   std::int64_t next_keyframe_index_ = 0;
   std::int64_t next_sequence_ = 0;
+  std::vector<std::int64_t> stored_utimes_;  ///< resume: scan times of the stored keyframes, in order
+  std::size_t next_stored_ = 0;              ///< resume: next stored keyframe to recognise
+  bool skip_stored_ = false;
+  std::atomic<std::int64_t> keyframes_skipped_{0};
   double residual_since_keyframe_ = 0.0;
 
   mutable std::mutex queue_mutex_;

@@ -10,9 +10,9 @@ namespace loopd {
 
 LogWriter::~LogWriter() { close(); }
 
-bool LogWriter::open(const std::string& path, std::string* error) {
+bool LogWriter::open(const std::string& path, std::string* error, bool append) {
   close();
-  log_ = lcm_eventlog_create(path.c_str(), "w");
+  log_ = lcm_eventlog_create(path.c_str(), append ? "a" : "w");
   if (!log_) {
     if (error) *error = "cannot create LCM log " + path;
     return false;

@@ -24,7 +24,8 @@ class LogWriter {
   ~LogWriter();
   LogWriter(const LogWriter&) = delete;
   LogWriter& operator=(const LogWriter&) = delete;
-  bool open(const std::string& path, std::string* error);
+  /// @brief Creates `path` (append: adds to an existing log, e.g. a resumed replay's output).
+  bool open(const std::string& path, std::string* error, bool append = false);
   bool write(const std::string& channel, std::int64_t timestamp, const void* data, std::size_t size);
   /// @brief Encodes an lcm-gen message and writes it.
   template <typename Msg>

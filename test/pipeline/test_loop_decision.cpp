@@ -43,6 +43,7 @@ TEST_CASE("an accepted verification becomes an accepted decision with every scor
   CHECK(d.hungarian_consistency == 0.62);
   CHECK(d.degeneracy == 4.5);
   CHECK(d.T_match_query.isApprox(v.T_match_query, 0.0));
+  CHECK(d.information == v.information);  // kept so a map store can rebuild the loop edge
   CHECK(d.ms_descriptor == 3.0);
   CHECK(d.ms_fourpcs == 11.0);
   CHECK(d.ms_total == 19.0);

@@ -1,6 +1,7 @@
 #pragma once
 // Keeps the keyframe trajectory and all accepted loops, and re-corrects on each new loop.
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -54,6 +55,24 @@ struct CorrectionResult {
   double end_rotation_error = 0;     ///< [rad]
 };
 
+/// @brief What a LoopCorrector needs, besides its keyframes, loops and corrected poses, to continue exactly where it
+/// stopped (after a restart from a map store).
+struct CorrectorResumeState {
+  std::vector<ClosedSpan> closed_spans;  ///< loops already closed (kept closed by later heuristic passes)
+  PoseIndex max_end_index = -1;          ///< newest loop end
+  PoseIndex last_graph_index = -1;       ///< newest loop end when the graph was last solved
+  std::int64_t num_loops = 0;            ///< loops the state covers
+};
+
+/// @brief The state as bytes (little-endian, versioned) for a map store, and back; decode never throws.
+std::vector<std::uint8_t> encode_resume_state(const CorrectorResumeState& state);
+struct DecodedResumeState {
+  bool ok = false;
+  std::string error;
+  CorrectorResumeState state;
+};
+DecodedResumeState decode_resume_state(const std::vector<std::uint8_t>& bytes);
+
 /// @brief Holds odometry keyframe poses (+ residuals) and all accepted loops; every keyframe's corrected pose is
 /// available after each loop, and any later odometry pose maps into the corrected frame with T_map_odom().
 /// Not thread-safe; the daemon calls it from its worker.
@@ -92,6 +111,14 @@ class LoopCorrector {
   const std::vector<LoopConstraint>& loops() const { return loops_; }
   std::size_t size() const { return odometry_.size(); }
   const LoopCorrectorConfig& config() const { return config_; }
+
+  /// @brief The state resume() needs besides keyframes, loops and corrected poses.
+  CorrectorResumeState resume_state() const;
+  /// @brief Continues where a stopped corrector was: its keyframes were added again (add_keyframe, same order), then
+  /// this restores its first state.num_loops loops (`loops`) and its corrected poses without correcting anything.
+  /// Refused (nothing changes) when the sizes or indices do not fit.
+  std::optional<std::string> resume(const std::vector<LoopConstraint>& loops, const std::vector<Eigen::Isometry3d>& corrected,
+                                    const CorrectorResumeState& state);
 
   /// @brief T_map_odom = corrected_last * odom_last^-1 (identity before any keyframe).
   Eigen::Isometry3d T_map_odom() const;

@@ -11,6 +11,7 @@ void apply_verification(const VerifyResult& v, double ms_descriptor, LoopDecisio
   d.hungarian_consistency = v.hungarian_consistency;
   d.degeneracy = v.degeneracy;
   d.T_match_query = v.T_match_query;
+  d.information = v.information;
   d.ms_descriptor = ms_descriptor;
   d.ms_fourpcs = v.ms_fourpcs;
   d.ms_gicp = v.ms_gicp;

@@ -23,6 +23,7 @@ struct LoopDecision {
   double gate_distance = 0.0, gate_radius = 0.0, descriptor_distance = -1.0;
   double lcp_fraction = -1.0, icp_residual = -1.0, icp_fitness = -1.0, hungarian_consistency = -1.0, degeneracy = -1.0;
   Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
+  Information6d information = Information6d::Zero();  ///< of T_match_query (verification's GICP Hessian); not published
   double ms_descriptor = 0.0, ms_fourpcs = 0.0, ms_gicp = 0.0, ms_hungarian = 0.0, ms_total = 0.0;
 };
 

@@ -190,6 +190,7 @@ CorrectionOutput LoopDetector::correction_output(const CorrectionResult& result,
   c.loop_event_id = loop_event_id;
   c.method = to_string(result.method);
   c.T_map_odom = corrector_.T_map_odom();
+  c.resume_state = corrector_.resume_state();
   const std::vector<Eigen::Isometry3d>& corrected = corrector_.corrected_poses();
   c.keys.reserve(keyframes_.size());
   c.utimes.reserve(keyframes_.size());
@@ -204,13 +205,15 @@ CorrectionOutput LoopDetector::correction_output(const CorrectionResult& result,
 }
 
 DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
-                                          const DecisionCallback& on_decided) {
+                                          const DecisionCallback& on_decided,
+                                          const std::function<void(const KeyframeRecord&, const Eigen::Isometry3d&)>& on_placed) {
   // Vlaminck 2019 Sec. 4: the keyframe enters the map where the corrected odometry puts it.
   if (!keyframes_.empty()) travelled_ += (keyframes_.newest().T_odom_sensor.inverse() * input.T_odom_sensor).translation().norm();
   if (features && !features->ok) features.reset();
   pose_index_[input.key] = corrector_.add_keyframe(input.T_odom_sensor, input.residual);
   const Eigen::Isometry3d T_map_query = corrector_.T_map_odom() * input.T_odom_sensor;
   const KeyframeRecord& query = place_keyframe(input, std::move(features), T_map_query);
+  if (on_placed) on_placed(query, T_map_query);
 
   DetectorOutput out;
   if (query.features) {

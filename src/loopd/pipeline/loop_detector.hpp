@@ -76,6 +76,7 @@ struct CorrectionOutput {
   std::vector<std::int64_t> utimes;           ///< [us] by keys
   std::vector<Eigen::Isometry3d> T_map_sensor;  ///< corrected poses, by keys
   Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();
+  CorrectorResumeState resume_state;  ///< what a map store keeps to resume correcting from this revision
   double ms = 0.0;
 };
 
@@ -100,8 +101,29 @@ class LoopDetector {
   ///        enters the trajectory but it is neither a query nor a candidate.
   /// @param on_decided called with each decision as soon as it is made, before an accepted loop's correction runs
   ///        (so a loop event need not wait for the pose graph); the decisions are also in the returned output.
+  /// @param on_placed called with the keyframe as stored and its map pose, before any decision (a map store commits
+  ///        the keyframe before its decisions go out).
   DetectorOutput add_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
-                              const std::function<void(const LoopDecision&)>& on_decided = {});
+                              const std::function<void(const LoopDecision&)>& on_decided = {},
+                              const std::function<void(const KeyframeRecord&, const Eigen::Isometry3d& T_map_sensor)>& on_placed = {});
+
+  // Resuming from a map store: the engine replays what the store holds, in the order it happened (each keyframe, then
+  // the decisions its query made), and the detector ends in the state it had when it stopped. Nothing is verified.
+
+  /// @brief A stored keyframe, placed again as add_keyframe() placed it.
+  void restore_keyframe(const KeyframeRecord& record);
+  /// @brief A stored decision of the newest restored keyframe, counted again; an accepted one becomes a loop edge again
+  /// with `information` (its correction comes from resume_correction() or is made again by reapply_loop()).
+  void restore_decision(const LoopDecision& decision, const Information6d& information);
+  /// @brief The stored correction made by the newest restored keyframe's accepted loop: every restored keyframe's
+  /// corrected pose (by key) and the corrector's resumable state. Covers every accepted loop restored so far.
+  std::optional<std::string> resume_correction(std::int64_t revision, const std::vector<KeyframeKey>& keys,
+                                               const std::vector<Eigen::Isometry3d>& T_map_sensor, const CorrectorResumeState& state);
+  /// @brief An accepted loop of the newest restored keyframe whose correction was not stored (stopped in between):
+  /// the correction is made again, exactly as it was then.
+  std::optional<CorrectionOutput> reapply_loop(const LoopDecision& decision, const Information6d& information);
+  /// @brief The corrector's resumable state (what the engine stores with each correction).
+  CorrectorResumeState corrector_state() const { return corrector_.resume_state(); }
 
   /// @brief Corrected pose of an odometry pose received after the newest keyframe.
   Eigen::Isometry3d T_map_odom() const;
@@ -130,6 +152,7 @@ class LoopDetector {
   CorrectionOutput correction_output(const CorrectionResult& result, std::int64_t loop_event_id, const Stopwatch& sw);
   PoseIndex pose_index(const KeyframeKey& key) const { return pose_index_.at(key); }
   bool guided(const KeyframeKey& query) const;
+  LoopConstraint count_restored(const LoopDecision& decision, const Information6d& information);
 
   LoopDetectorConfig config_;
   std::optional<LidarModel> model_;
@@ -145,6 +168,7 @@ class LoopDetector {
   std::int64_t loops_accepted_ = 0;
   std::int64_t loops_rejected_ = 0;
   std::optional<KeyframeKey> last_accepted_;  ///< query of the newest accepted loop
+  std::vector<LoopConstraint> restored_loops_;  ///< accepted loops restored, handed to the corrector by resume_correction()
 };
 
 }  // namespace loopd

@@ -1,0 +1,99 @@
+#include "map_resume.hpp"
+
+#include "loopd/core/stopwatch.hpp"
+#include "loopd/correction/loop_corrector.hpp"
+#include "map_records_convert.hpp"
+
+namespace loopd {
+namespace {
+
+/// @brief The stored correction and its decoded corrector state, when the map has one.
+struct StoredCorrection {
+  bool present = false;
+  CorrectionRecord record;
+  CorrectorResumeState state;
+};
+
+std::optional<std::string> read_correction(MapStore& store, StoredCorrection* out) {
+  const StoreResult<std::optional<CorrectionRecord>> read = store.correction();
+  if (!read.ok()) return read.status.message;
+  if (!read.value) return std::nullopt;
+  const DecodedResumeState state = decode_resume_state(read.value->corrector_state);
+  if (!state.ok) return store.uri() + ": correction revision " + std::to_string(read.value->revision) + ": " + state.error;
+  out->present = true;
+  out->record = *read.value;
+  out->state = state.state;
+  return std::nullopt;
+}
+
+std::optional<std::string> read_loops(MapStore& store, std::vector<LoopRecord>* loops) {
+  const StoreStatus s = store.for_each_loop(false, [&](LoopRecord&& r) { loops->push_back(std::move(r)); });
+  if (!s.ok()) return s.message;
+  return std::nullopt;
+}
+
+/// @brief Restores the decisions `query` made (they follow its keyframe in event order): the ones the stored
+/// correction covers are counted again, later accepted ones are corrected again.
+std::optional<std::string> restore_decisions(const KeyframeKey& query, const std::vector<LoopRecord>& loops, std::size_t* next,
+                                             const StoredCorrection& stored, LoopDetector& detector, ResumeSummary& summary) {
+  for (; *next < loops.size() && loops[*next].query == query; ++*next) {
+    const LoopRecord& r = loops[*next];
+    const LoopDecision d = to_loop_decision(r);
+    ++summary.decisions;
+    if (d.status == LoopStatus::kAccepted && (!stored.present || r.event_id > stored.record.loop_event_id)) {
+      if (auto c = detector.reapply_loop(d, d.information)) summary.corrections.push_back(std::move(*c));
+      continue;
+    }
+    detector.restore_decision(d, d.information);
+    if (!stored.present || r.event_id != stored.record.loop_event_id) continue;
+    if (auto why = detector.resume_correction(stored.record.revision, stored.record.keys, stored.record.T_map_sensor, stored.state))
+      return *why;
+    summary.revision = stored.record.revision;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+ResumeSummary resume_detector(MapStore& store, LoopDetector& detector) {
+  Stopwatch sw;
+  ResumeSummary summary;
+  const StoreResult<std::int64_t> dropped = store.drop_undecided();
+  if (!dropped.ok()) {
+    summary.error = dropped.status.message;
+    return summary;
+  }
+  summary.dropped_undecided = dropped.value;
+  StoredCorrection stored;
+  std::vector<LoopRecord> loops;
+  if (auto e = read_correction(store, &stored)) summary.error = *e;
+  if (summary.error.empty())
+    if (auto e = read_loops(store, &loops)) summary.error = *e;
+  if (!summary.error.empty()) return summary;
+
+  std::size_t next_loop = 0;
+  std::optional<std::string> failure;
+  const StoreStatus read = store.for_each_keyframe(std::nullopt, KeyframeLoad::kFull, [&](MapKeyframe&& k) {
+    if (failure) return;
+    detector.restore_keyframe(k.record);
+    ++summary.keyframes;
+    summary.utimes.push_back(k.record.utime);
+    if (k.record.key.session == 0) summary.next_index = k.record.key.index + 1;
+    failure = restore_decisions(k.record.key, loops, &next_loop, stored, detector, summary);
+  });
+  if (!read.ok()) failure = read.message;
+  if (!failure && next_loop != loops.size())
+    failure = std::to_string(loops.size() - next_loop) + " decisions name a query keyframe the map does not hold in order";
+  if (!failure && stored.present && summary.revision == 0)
+    failure = "the stored correction (revision " + std::to_string(stored.record.revision) + ") names loop event " +
+              std::to_string(stored.record.loop_event_id) + ", which the map does not hold";
+  if (failure) {
+    summary.error = store.uri() + ": cannot resume: " + *failure;
+    return summary;
+  }
+  summary.ok = true;
+  summary.seconds = sw.ms() * 1e-3;
+  return summary;
+}
+
+}  // namespace loopd

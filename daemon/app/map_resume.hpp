@@ -1,0 +1,32 @@
+#pragma once
+/// @file Restarting on a map: the detector is brought back to where the map store says it stopped.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "loopd/map/map_store.hpp"
+#include "loopd/pipeline/loop_detector.hpp"
+
+namespace loopd {
+
+/// @brief What resume_detector() restored.
+struct ResumeSummary {
+  bool ok = false;
+  std::string error;                     ///< why the map could not be resumed (the map is then left as it was)
+  std::int64_t keyframes = 0;            ///< keyframes restored
+  std::int64_t decisions = 0;            ///< decisions restored
+  std::int64_t dropped_undecided = 0;    ///< keyframes whose decisions were cut off by the stop (made again)
+  std::int64_t revision = 0;             ///< correction revision restored (0: none stored)
+  std::vector<std::int64_t> utimes;      ///< scan time of every restored keyframe, in order
+  std::int64_t next_index = 0;           ///< first free keyframe index of session 0
+  /// Corrections made again: accepted loops whose correction the stop cut off. The caller stores and publishes them.
+  std::vector<CorrectionOutput> corrections;
+  double seconds = 0.0;
+};
+
+/// @brief Replays the map into `detector` (fresh, same configuration as when the map was made): each keyframe, then
+/// the decisions its query made; the stored correction where it was made; corrections the stop cut off made again.
+/// Keyframes whose decisions were not all stored are removed from the map first (they are processed again).
+ResumeSummary resume_detector(MapStore& store, LoopDetector& detector);
+
+}  // namespace loopd

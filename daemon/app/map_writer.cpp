@@ -1,0 +1,72 @@
+#include "map_writer.hpp"
+
+#include <cstdio>
+
+#include "map_records_convert.hpp"
+
+namespace loopd {
+
+void MapWriter::failed(const std::string& what, const StoreStatus& status) {
+  std::int64_t n = 0;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    n = ++stats_.failures;
+    stats_.last_error = what + ": " + status.message;
+  }
+  if (n == 1 || (n - 1) % log_every_n_ == 0)
+    std::fprintf(stderr, "loopd: MAP WRITE FAILED (%lld so far): %s: %s; detection goes on in memory, what is not on disk is lost at exit\n",
+                 static_cast<long long>(n), what.c_str(), status.message.c_str());
+}
+
+void MapWriter::on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor) {
+  decided_with_correction_ = false;
+  const StoreStatus s = store_.put_keyframe(MapKeyframe{keyframe, T_map_sensor});
+  if (!s.ok()) return failed("keyframe " + to_string(keyframe.key), s);
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  ++stats_.keyframes_written;
+}
+
+void MapWriter::on_decision(const LoopDecision& decision) {
+  const StoreStatus s = store_.put_loop(to_loop_record(decision));
+  if (s.ok()) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.decisions_written;
+  } else {
+    failed("loop event " + std::to_string(decision.event_id), s);
+  }
+  next_.on_decision(decision);
+}
+
+void MapWriter::on_correction(const CorrectionOutput& correction) {
+  // The correction and "its keyframe is decided" in one transaction: a stop between them would leave a correction
+  // naming a keyframe that resume removes.
+  StoreStatus s = store_.begin();
+  if (s.ok()) s = store_.put_correction(to_correction_record(correction));
+  if (s.ok() && !correction.keys.empty()) s = store_.mark_decided(correction.keys.back());
+  if (s.ok()) s = store_.commit();
+  if (s.ok()) {
+    decided_with_correction_ = true;
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.corrections_written;
+  } else {
+    store_.rollback();
+    failed("correction revision " + std::to_string(correction.revision), s);
+  }
+  next_.on_correction(correction);
+}
+
+void MapWriter::on_keyframe_decided(const KeyframeKey& keyframe) {
+  if (!decided_with_correction_) {
+    const StoreStatus s = store_.mark_decided(keyframe);
+    if (!s.ok()) failed("keyframe " + to_string(keyframe) + " decided", s);
+  }
+  decided_with_correction_ = false;
+  next_.on_keyframe_decided(keyframe);
+}
+
+MapWriterStats MapWriter::stats() const {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  return stats_;
+}
+
+}  // namespace loopd

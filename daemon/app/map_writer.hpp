@@ -1,0 +1,43 @@
+#pragma once
+/// @file Commits what the engine makes to the map store before the next sink publishes it.
+#include <cstdint>
+#include <mutex>
+#include <string>
+
+#include "loopd/map/map_store.hpp"
+#include "loopd_engine.hpp"
+
+namespace loopd {
+
+/// @brief What the map writer did, for status_t and the log.
+struct MapWriterStats {
+  std::int64_t keyframes_written = 0, decisions_written = 0, corrections_written = 0;
+  std::int64_t failures = 0;  ///< writes the store refused (the data stays in memory, detection goes on)
+  std::string last_error;
+};
+
+/// @brief An EngineSink in front of another: each keyframe, decision and correction is committed to `store` first
+/// (so anything seen on the bus is on disk), then passed on. A refused write is counted and logged (1st, (N+1)th, ...)
+/// and the result is still passed on: loopd keeps detecting in memory and says so.
+class MapWriter : public EngineSink {
+ public:
+  MapWriter(MapStore& store, EngineSink& next, int log_every_n) : store_(store), next_(next), log_every_n_(log_every_n) {}
+
+  void on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor) override;
+  void on_decision(const LoopDecision& decision) override;
+  void on_correction(const CorrectionOutput& correction) override;
+  void on_keyframe_decided(const KeyframeKey& keyframe) override;
+  MapWriterStats stats() const;
+
+ private:
+  void failed(const std::string& what, const StoreStatus& status);
+
+  MapStore& store_;
+  EngineSink& next_;
+  int log_every_n_;
+  bool decided_with_correction_ = false;  ///< the correction's transaction already marked the keyframe decided
+  mutable std::mutex stats_mutex_;
+  MapWriterStats stats_;
+};
+
+}  // namespace loopd

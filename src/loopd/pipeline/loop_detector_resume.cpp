@@ -1,0 +1,71 @@
+// LoopDetector: resuming from what a map store holds (the engine reads the store; the detector never sees it).
+#include "loopd/pipeline/loop_detector.hpp"
+
+namespace loopd {
+
+void LoopDetector::restore_keyframe(const KeyframeRecord& record) {
+  // The same placement as add_keyframe(), without candidates: travel, corrector, gate.
+  if (!keyframes_.empty()) travelled_ += (keyframes_.newest().T_odom_sensor.inverse() * record.T_odom_sensor).translation().norm();
+  std::shared_ptr<const KeyframeFeatures> features = record.features && record.features->ok ? record.features : nullptr;
+  pose_index_[record.key] = corrector_.add_keyframe(record.T_odom_sensor, record.residual);
+  const Eigen::Isometry3d T_map_query = corrector_.T_map_odom() * record.T_odom_sensor;
+  KeyframeInput input;
+  input.key = record.key;
+  input.utime = record.utime;
+  input.T_odom_sensor = record.T_odom_sensor;
+  input.residual = record.residual;
+  const KeyframeRecord& placed = place_keyframe(input, std::move(features), T_map_query);
+  gate_.add({placed.key, T_map_query.translation(), travelled_});
+}
+
+LoopConstraint LoopDetector::count_restored(const LoopDecision& decision, const Information6d& information) {
+  next_event_id_ = std::max(next_event_id_, decision.event_id + 1);
+  LoopConstraint loop;
+  if (decision.status != LoopStatus::kAccepted) {
+    ++loops_rejected_;
+    return loop;
+  }
+  ++loops_accepted_;
+  last_accepted_ = decision.query;
+  travelled_at_last_loop_ = travelled_;
+  loop.query_index = pose_index(decision.query);
+  loop.match_index = pose_index(decision.match);
+  loop.T_match_query = decision.T_match_query;
+  loop.information = information;
+  return loop;
+}
+
+void LoopDetector::restore_decision(const LoopDecision& decision, const Information6d& information) {
+  const LoopConstraint loop = count_restored(decision, information);
+  if (decision.status == LoopStatus::kAccepted && !corrector_.check_loop(loop)) restored_loops_.push_back(loop);
+}
+
+std::optional<std::string> LoopDetector::resume_correction(std::int64_t revision, const std::vector<KeyframeKey>& keys,
+                                                           const std::vector<Eigen::Isometry3d>& T_map_sensor, const CorrectorResumeState& state) {
+  if (keys.size() != T_map_sensor.size() || keys.size() != keyframes_.size())
+    return "stored correction has " + std::to_string(keys.size()) + " poses for " + std::to_string(keyframes_.size()) + " keyframes";
+  std::vector<Eigen::Isometry3d> corrected(keys.size(), Eigen::Isometry3d::Identity());
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const auto it = pose_index_.find(keys[i]);
+    if (it == pose_index_.end()) return "stored correction names keyframe " + to_string(keys[i]) + ", which the map does not hold";
+    corrected[static_cast<std::size_t>(it->second)] = T_map_sensor[i];
+  }
+  if (auto why = corrector_.resume(restored_loops_, corrected, state)) return why;
+  restored_loops_.clear();
+  revision_ = revision;
+  gate_.update_positions([this](const KeyframeKey& k) { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(k))].translation(); });
+  return std::nullopt;
+}
+
+std::optional<CorrectionOutput> LoopDetector::reapply_loop(const LoopDecision& decision, const Information6d& information) {
+  const LoopConstraint loop = count_restored(decision, information);
+  if (decision.status != LoopStatus::kAccepted || corrector_.check_loop(loop)) return std::nullopt;
+  Stopwatch sw;
+  const CorrectionResult result = corrector_.add_loop(loop);
+  if (!result.ok) return std::nullopt;
+  CorrectionOutput c = correction_output(result, decision.event_id, sw);
+  gate_.update_positions([this](const KeyframeKey& k) { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(k))].translation(); });
+  return c;
+}
+
+}  // namespace loopd
