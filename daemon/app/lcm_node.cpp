@@ -23,6 +23,7 @@
 
 namespace loopd {
 namespace {
+#include "trajectory_publisher.hpp"
 
 double wall_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 std::int64_t wall_utime() {
@@ -50,7 +51,12 @@ class OutputSink : public EngineSink {
   }
   void on_correction(const CorrectionOutput& c) override {
     const std::int64_t t = data_time_ ? last_data_utime_ : wall_utime();
-    publish(node_.trajectory_channel, t, to_message(c, t));
+    publish(node_.trajectory_channel, t, trajectory_.make_message(c, t));
+  }
+  /// Every keyframe of the last correction, when the last trajectory_t was partial (end of a run).
+  void finish_trajectory() {
+    const std::int64_t t = data_time_ ? last_data_utime_ : wall_utime();
+    if (auto m = trajectory_.final_snapshot(t)) publish(node_.trajectory_channel, t, *m);
   }
   template <typename Msg>
   void publish(const std::string& channel, std::int64_t t, const Msg& msg) {
@@ -71,6 +77,7 @@ class OutputSink : public EngineSink {
   std::mutex mutex_;
   std::int64_t written_ = 0;
   std::int64_t last_data_utime_ = 0;
+  TrajectoryPublisher trajectory_{node_.trajectory_output};
 };
 
 /// Decoded input waiting for the ingest thread, with the time it arrived (wall clock live, logger time in replay).
@@ -332,6 +339,7 @@ bool check_receive_buffer(const std::string& lcm_url, std::int64_t points) {
 
 int run_live(const NodeConfig& node, const EngineConfig& engine_config, const std::atomic<bool>& stop, RunSummary* summary) {
   lcm::LCM lcm(node.lcm_url);
+  if (auto e = trajectory_output.validate()) return *e;
   if (!lcm.good()) {
     std::cerr << "loopd: cannot initialise LCM with URL '" << node.lcm_url << "'" << std::endl;
     return 3;
@@ -489,3 +497,4 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
 }
 
 }  // namespace loopd
+  sink.finish_trajectory();

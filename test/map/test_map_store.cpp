@@ -3,9 +3,11 @@
 // and full disks that must give a status with a reason, never a crash.
 #include <sqlite3.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -638,4 +640,40 @@ TEST_CASE("map store: URIs and settings that cannot work are refused with kInval
   const OpenedMapStore opened = open_map_store(config);
   CHECK(opened.status.code == Code::kInvalid);
   CHECK(opened.status.message.find("synchronous") != std::string::npos);
+}
+
+TEST_CASE("map store: after a kill -9, committed records are there and an open transaction left nothing") {
+  TempDir dir;
+  const std::string path = dir.file("map.db");
+  const auto features = scan_features(3);
+  const pid_t child = ::fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    // No Catch assertions in the child: it writes, then dies without closing anything.
+    MapStoreConfig config;
+    config.uri = path;
+    OpenedMapStore opened = open_map_store(config);
+    if (!opened.status.ok()) ::_exit(2);
+    MapStore& store = *opened.store;
+    bool ok = store.put_session(session(0)).ok();
+    for (std::int64_t i = 0; i < 3; ++i) ok = ok && store.put_keyframe(keyframe(0, i, features)).ok();
+    ok = ok && store.put_loop(loop(1, {0, 2}, {0, 0}, true)).ok();
+    ok = ok && store.begin().ok() && store.put_keyframe(keyframe(0, 3, features)).ok() && store.put_loop(loop(2, {0, 3}, {0, 0}, true)).ok();
+    if (!ok) ::_exit(3);
+    ::raise(SIGKILL);
+    ::_exit(4);
+  }
+  int status = 0;
+  REQUIRE(::waitpid(child, &status, 0) == child);
+  REQUIRE(WIFSIGNALED(status));
+  CHECK(WTERMSIG(status) == SIGKILL);
+  CHECK(fs::file_size(path + "-wal") > 0);  // the committed records are only in the write-ahead log
+  auto store = open_ok(path);
+  const auto all = load(*store, std::nullopt, KeyframeLoad::kFull);
+  REQUIRE(all.size() == 3);
+  require_same_prepared(features->prepared, all[2].record.features->prepared);
+  const auto left = loops(*store, false);
+  REQUIRE(left.size() == 1);
+  CHECK(left[0].event_id == 1);
+  REQUIRE_OK(store->check());
 }
