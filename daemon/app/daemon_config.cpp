@@ -231,6 +231,9 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("status_period", n.status_period);
   b.field("map.path", n.map.uri);
   b.field("map.synchronous", n.map.synchronous);
+  b.field("output.trajectory_min_move", n.trajectory_output.min_move);
+  b.field("output.trajectory_min_turn_deg", n.trajectory_output.min_turn_deg);
+  b.field("output.trajectory_snapshot_period", n.trajectory_output.snapshot_period);
 
   EngineConfig& e = c.engine;
   b.field("threads", e.num_threads);

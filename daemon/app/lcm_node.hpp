@@ -6,6 +6,7 @@
 
 #include "loopd/map/map_store.hpp"
 #include "loopd_engine.hpp"
+#include "trajectory_publisher.hpp"
 
 namespace loopd {
 
@@ -23,6 +24,8 @@ struct NodeConfig {
   bool quiet = false;              ///< no per-loop log lines
   /// The map store (map.path / --map): empty uri = everything in memory, as before.
   MapStoreConfig map;
+  /// How much of the corrected trajectory each revision publishes (output.*).
+  TrajectoryPublisherConfig trajectory_output;
   std::optional<std::string> validate() const;
 };
 

@@ -36,27 +36,41 @@ loop_event_t to_message(const LoopDecision& d, std::int64_t utime) {
   return m;
 }
 
-trajectory_t to_message(const CorrectionOutput& c, std::int64_t utime) {
+trajectory_t to_message_header(const CorrectionOutput& c, std::int64_t utime) {
   trajectory_t m{};
   m.utime = utime;
   m.revision = c.revision;
   m.loop_event_id = c.loop_event_id;
   m.method = c.method;
   to_row_major(c.T_map_odom, m.T_map_odom);
+  m.num_keyframes = 0;
+  m.full = false;
+  m.total_keyframes = static_cast<std::int64_t>(c.T_map_sensor.size());
+  return m;
+}
+
+keyframe_pose_t to_keyframe_pose(std::int64_t id, std::int64_t utime, const Eigen::Isometry3d& T_map_sensor) {
+  keyframe_pose_t k{};
+  k.id = id;
+  k.utime = utime;
+  const Eigen::Vector3d t = T_map_sensor.translation();
+  const Eigen::Quaterniond q(T_map_sensor.linear());
+  for (int j = 0; j < 3; ++j) k.position[j] = t[j];
+  k.orientation[0] = q.w();
+  k.orientation[1] = q.x();
+  k.orientation[2] = q.y();
+  k.orientation[3] = q.z();
+  return k;
+}
+
+trajectory_t to_message(const CorrectionOutput& c, std::int64_t utime) {
+  trajectory_t m = to_message_header(c, utime);
   m.num_keyframes = static_cast<int32_t>(c.T_map_sensor.size());
   m.keyframes.resize(c.T_map_sensor.size());
-  for (std::size_t i = 0; i < c.T_map_sensor.size(); ++i) {
-    keyframe_pose_t& k = m.keyframes[i];
-    k.id = i < c.keys.size() ? c.keys[i].index : static_cast<std::int64_t>(i);
-    k.utime = i < c.utimes.size() ? c.utimes[i] : 0;
-    const Eigen::Vector3d t = c.T_map_sensor[i].translation();
-    const Eigen::Quaterniond q(c.T_map_sensor[i].linear());
-    for (int j = 0; j < 3; ++j) k.position[j] = t[j];
-    k.orientation[0] = q.w();
-    k.orientation[1] = q.x();
-    k.orientation[2] = q.y();
-    k.orientation[3] = q.z();
-  }
+  for (std::size_t i = 0; i < c.T_map_sensor.size(); ++i)
+    m.keyframes[i] = to_keyframe_pose(i < c.keys.size() ? c.keys[i].index : static_cast<std::int64_t>(i), i < c.utimes.size() ? c.utimes[i] : 0,
+                                      c.T_map_sensor[i]);
+  m.full = true;
   return m;
 }
 

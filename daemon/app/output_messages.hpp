@@ -12,8 +12,12 @@ namespace loopd {
 
 /// @brief loop_event_t for one decision; utime is the decision time [us].
 loop_event_t to_message(const LoopDecision& d, std::int64_t utime);
-/// @brief trajectory_t for one correction; utime is the publication time [us].
+/// @brief trajectory_t for one correction with every keyframe (full = true); utime is the publication time [us].
 trajectory_t to_message(const CorrectionOutput& c, std::int64_t utime);
+/// @brief trajectory_t for one correction without keyframes (revision, event, method, T_map_odom; full = false).
+trajectory_t to_message_header(const CorrectionOutput& c, std::int64_t utime);
+/// @brief One keyframe's corrected pose: position and unit quaternion (w, x, y, z).
+keyframe_pose_t to_keyframe_pose(std::int64_t id, std::int64_t utime, const Eigen::Isometry3d& T_map_sensor);
 
 /// @brief Counters of one input channel (LCM side).
 struct ChannelCounters {

@@ -3,6 +3,7 @@
 #include <cstring>
 #include <exception>
 #include <new>
+#include <vector>
 
 namespace loopd {
 namespace {
@@ -130,7 +131,8 @@ void walk(WireWalker& w, const DecodeLimits&, const keyframe_pose_t*) {
 }
 constexpr std::size_t kKeyframePoseBytes = 8 + 8 + 3 * 8 + 4 * 8;
 
-void walk(WireWalker& w, const DecodeLimits& limits, const trajectory_t*) {
+/// trajectory_t up to its keyframes: the whole of version 1 (before `full` and `total_keyframes` were appended).
+void walk_trajectory_v1(WireWalker& w, const DecodeLimits& limits) {
   w.skip("utime", 8);
   w.skip("revision", 8);
   w.skip("loop_event_id", 8);
@@ -139,6 +141,15 @@ void walk(WireWalker& w, const DecodeLimits& limits, const trajectory_t*) {
   const std::int64_t n = w.length("num_keyframes", w.int32("num_keyframes"), limits.max_keyframes, kKeyframePoseBytes);
   w.skip("keyframes", kKeyframePoseBytes, static_cast<std::size_t>(n));
 }
+
+void walk(WireWalker& w, const DecodeLimits& limits, const trajectory_t*) {
+  walk_trajectory_v1(w, limits);
+  w.skip("full", 1);
+  w.skip("total_keyframes", 8);
+}
+
+/// Fingerprint of trajectory_t version 1 (loopd output logs written before `full` and `total_keyframes`).
+constexpr std::int64_t kTrajectoryV1Hash = 0x5039562511ef5e3aLL;
 
 void walk(WireWalker& w, const DecodeLimits& limits, const channel_stats_t*) {
   w.string("channel", limits.max_string);
@@ -207,4 +218,35 @@ template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimit
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, channel_stats_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, status_t*);
 
+
+DecodeResult decode_trajectory_v1(const void* data, std::size_t size, const DecodeLimits& limits, trajectory_t* out) {
+  DecodeResult result;
+  if (data == nullptr || size < 8) {
+    result.reason = "no fingerprint";
+    return result;
+  }
+  WireWalker w(data, size);
+  w.fingerprint(kTrajectoryV1Hash);
+  walk_trajectory_v1(w, limits);
+  w.end();
+  if (!w.ok()) {
+    result.reason = w.error();
+    result.offset = w.error_offset();
+    return result;
+  }
+  // Today's layout of the same message: the new fingerprint, the version-1 fields, full = true and
+  // total_keyframes = num_keyframes (a version-1 message held every keyframe).
+  WireWalker header(data, size);
+  header.skip("fingerprint .. loop_event_id", 8, 4);
+  header.string("method", limits.max_string);
+  header.skip("T_map_odom", 8, 16);
+  const std::int32_t num = header.int32("num_keyframes");
+  const auto* bytes = static_cast<const std::uint8_t*>(data);
+  std::vector<std::uint8_t> upgraded(bytes, bytes + size);
+  const std::uint64_t hash = static_cast<std::uint64_t>(trajectory_t::getHash());
+  for (int i = 0; i < 8; ++i) upgraded[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(hash >> (56 - 8 * i));
+  upgraded.push_back(1);
+  for (int i = 0; i < 8; ++i) upgraded.push_back(static_cast<std::uint8_t>(static_cast<std::uint64_t>(num) >> (56 - 8 * i)));
+  return decode_bounded(upgraded.data(), upgraded.size(), limits, out);
+}
 }  // namespace loopd

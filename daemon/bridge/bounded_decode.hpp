@@ -38,4 +38,9 @@ struct DecodeResult {
 template <typename Msg>
 DecodeResult decode_bounded(const void* data, std::size_t size, const DecodeLimits& limits, Msg* out);
 
+/// @brief Decodes a trajectory_t of version 1 (the layout before `full` and `total_keyframes` were appended, in
+///        output logs of older loopd builds; its own fingerprint) with the same checks, as today's trajectory_t with
+///        full = true and total_keyframes = num_keyframes (version 1 always held every keyframe).
+DecodeResult decode_trajectory_v1(const void* data, std::size_t size, const DecodeLimits& limits, trajectory_t* out);
+
 }  // namespace loopd

@@ -313,3 +313,51 @@ TEST_CASE("a log cut inside its last event ends at the last whole event and says
   CHECK_FALSE(r.open(fs::temp_directory_path().string(), &error));
   CHECK(error.find("not a regular file") != std::string::npos);
 }
+
+TEST_CASE("trajectory_t: full and total_keyframes decode; a version-1 message (before them) decodes as a full snapshot") {
+  trajectory_t t = sample_trajectory(3);
+  t.revision = 7;
+  t.keyframes[1].position[0] = 2.5;
+  t.full = false;
+  t.total_keyframes = 40;
+  std::vector<std::uint8_t> b = encode(t);
+  trajectory_t out;
+  REQUIRE(decode_bounded(b.data(), b.size(), DecodeLimits{}, &out).ok);
+  CHECK_FALSE(out.full);
+  CHECK(out.total_keyframes == 40);
+  CHECK(out.keyframes[1].position[0] == 2.5);
+
+  // The last 9 bytes are the appended fields: without them the message is cut short at `full`.
+  std::vector<std::uint8_t> cut(b.begin(), b.end() - 9);
+  DecodeResult r = decode_bounded(cut.data(), cut.size(), DecodeLimits{}, &out);
+  CHECK_FALSE(r.ok);
+  CHECK(r.reason.rfind("full: needs 1 bytes", 0) == 0);
+  CHECK(r.offset == cut.size());
+
+  // Version 1: the same bytes with that version's fingerprint (0x5039562511ef5e3a, from a loopd output log of then).
+  std::vector<std::uint8_t> v1 = cut;
+  const std::uint8_t v1_hash[8] = {0x50, 0x39, 0x56, 0x25, 0x11, 0xef, 0x5e, 0x3a};
+  std::memcpy(v1.data(), v1_hash, 8);
+  CHECK_FALSE(decode_bounded(v1.data(), v1.size(), DecodeLimits{}, &out).ok);  // not today's type
+  trajectory_t upgraded;
+  REQUIRE(decode_trajectory_v1(v1.data(), v1.size(), DecodeLimits{}, &upgraded).ok);
+  CHECK(upgraded.full);
+  CHECK(upgraded.total_keyframes == 3);
+  CHECK(upgraded.revision == 7);
+  CHECK(upgraded.method == "heuristic+graph");
+  REQUIRE(upgraded.keyframes.size() == 3);
+  CHECK(upgraded.keyframes[1].position[0] == 2.5);
+
+  // Today's bytes are not version 1; a damaged version-1 message is refused with the field and offset.
+  CHECK(decode_trajectory_v1(b.data(), b.size(), DecodeLimits{}, &upgraded).reason.find("fingerprint") == 0);
+  const std::size_t at = 8 + 24 + 4 + t.method.size() + 1 + 128;
+  put_int32(&v1, at, 4);
+  r = decode_trajectory_v1(v1.data(), v1.size(), DecodeLimits{}, &upgraded);
+  CHECK_FALSE(r.ok);
+  CHECK(r.reason.rfind("num_keyframes: = 4 needs", 0) == 0);
+  CHECK(r.offset == at);
+  std::vector<std::uint8_t> trailing = cut;
+  std::memcpy(trailing.data(), v1_hash, 8);
+  trailing.push_back(0);
+  CHECK(decode_trajectory_v1(trailing.data(), trailing.size(), DecodeLimits{}, &upgraded).reason == "end of message: 1 trailing bytes");
+}

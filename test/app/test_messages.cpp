@@ -94,6 +94,8 @@ TEST_CASE("loop_event_t, trajectory_t and status_t round-trip") {
   REQUIRE(t.num_keyframes == 2);
   CHECK(t.keyframes[1].position[0] == Approx(3.0));
   CHECK(t.keyframes[1].utime == 20);
+  CHECK(t.full);
+  CHECK(t.total_keyframes == 2);
 
   EngineStats s;
   s.keyframes = 12;

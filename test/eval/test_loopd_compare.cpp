@@ -170,7 +170,8 @@ TEST_CASE("loopd-compare: two replays of one drive are identical, altered copies
     REQUIRE(last >= 0);
     const int edited = copy_log(runs.out1, altered, [&](const LogEvent& ev, std::vector<std::uint8_t>* data) {
       trajectory_t t;
-      if (ev.channel != channels::kTrajectory || !LogReader::decode(ev, &t) || t.revision != last) return false;
+      // The full snapshot of the last revision (the end of the replay) is the trajectory loopd-compare rebuilds last.
+      if (ev.channel != channels::kTrajectory || !LogReader::decode(ev, &t) || t.revision != last || !t.full) return false;
       REQUIRE(t.keyframes.size() > 10);
       t.keyframes[10].position[1] += 0.01;
       *data = encoded(t);

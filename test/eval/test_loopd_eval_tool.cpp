@@ -203,6 +203,9 @@ TEST_CASE("loopd-eval binary: same figures from LCM logs, JSON as the last line,
         t.keyframes.push_back(k);
       }
       t.num_keyframes = static_cast<std::int32_t>(t.keyframes.size());
+      // Revision 1 is a partial message (every pose changed): the evaluator applies it on top of revision 0 by id.
+      t.full = rev == 0;
+      t.total_keyframes = t.num_keyframes;
       if (rev == 1) {
         for (const auto& l : in.loops) {
           loop_event_t e{};

@@ -4,6 +4,7 @@
 #include <loopd/trajectory_t.hpp>
 
 #include "lcm_log.hpp"
+#include "trajectory_assembly.hpp"
 #include "loopd/core/pose.hpp"
 
 namespace loopd::tools {
@@ -44,6 +45,7 @@ bool read_run_log(const std::string& path, const CompareChannels& channels, RunL
   LogEvent ev;
   loop_event_t loop_msg;
   trajectory_t traj_msg;
+  TrajectoryAssembly assembly;
   std::string why;
   while (reader.next(&ev)) {
     ++run->events;
@@ -54,19 +56,28 @@ bool read_run_log(const std::string& path, const CompareChannels& channels, RunL
       }
       run->decisions.push_back(decision_of(loop_msg));
     } else if (ev.channel == channels.trajectory) {
-      if (!LogReader::decode(ev, &traj_msg, &why)) {
+      if (!decode_any_trajectory(ev.data.data(), ev.data.size(), &traj_msg, &why)) {
         note_malformed(run, ev.channel, why);
         continue;
       }
-      ++run->revisions;
-      // The LAST revision is the corrected trajectory (revisions increase with every correction).
-      if (run->last_revision < 0 || traj_msg.revision >= run->last_revision) {
-        run->last_revision = traj_msg.revision;
-        run->trajectory = keyframes_of(traj_msg);
-      }
+      // Revisions, not messages: the full snapshot at the end of a replay repeats the last revision.
+      if (!assembly.has_revision() || traj_msg.revision != assembly.revision()) ++run->revisions;
+      // The LAST revision is the corrected trajectory (revisions increase with every correction): partial messages
+      // are applied on top of the last full one, by keyframe id.
+      assembly.apply(traj_msg);
     }
   }
+  if (assembly.has_revision()) {
+    run->last_revision = assembly.revision();
+    run->trajectory = keyframes_of(assembly.current());
+  }
   run->problems = reader.problems();
+  if (assembly.has_revision() && !assembly.complete()) {
+    if (!run->problems.empty()) run->problems += "; ";
+    run->problems += "trajectory revision " + std::to_string(assembly.revision()) + ": " + std::to_string(run->trajectory.size()) +
+                     " keyframes rebuilt, its message announced " + std::to_string(assembly.current().total_keyframes) +
+                     (assembly.snapshots() == 0 ? " (no full snapshot in the log)" : " (a trajectory message is missing)");
+  }
   if (run->decisions.empty() && run->revisions == 0 && run->malformed == 0) {
     if (error) {
       *error = path + ": no '" + channels.loop_event + "' or '" + channels.trajectory + "' events in " +

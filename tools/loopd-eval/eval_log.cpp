@@ -8,6 +8,7 @@
 
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
+#include "trajectory_assembly.hpp"
 
 namespace loopd::tools {
 namespace {
@@ -95,8 +96,7 @@ bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput
   LogEvent ev;
   loop_event_t loop_msg;
   trajectory_t traj_msg;
-  trajectory_t last;
-  bool have_last = false;
+  TrajectoryAssembly assembly;
   while (reader.next(&ev)) {
     ++stats->events;
     done += kEventHeaderBytes + static_cast<std::int64_t>(ev.channel.size() + ev.data.size());
@@ -124,22 +124,21 @@ bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput
       input->loops.push_back(r);
       ++stats->loop_events;
     } else if (ev.channel == ch.trajectory) {
-      if (!LogReader::decode(ev, &traj_msg)) {
+      if (!decode_any_trajectory(ev.data.data(), ev.data.size(), &traj_msg)) {
         ++stats->malformed;
         continue;
       }
       ++stats->trajectories;
-      // The LAST revision is the corrected trajectory (revisions increase with every correction).
-      if (!have_last || traj_msg.revision >= last.revision) {
-        last = traj_msg;
-        have_last = true;
-      }
+      // The LAST revision is the corrected trajectory (revisions increase with every correction): partial messages
+      // are applied on top of the last full one, by keyframe id.
+      assembly.apply(traj_msg);
     } else {
       ++stats->skipped;
     }
   }
   if (progress) progress(total, total);
-  if (have_last) {
+  if (assembly.has_revision()) {
+    const trajectory_t last = assembly.current();
     stats->trajectory_revision = last.revision;
     input->corrected.clear();
     for (const auto& k : last.keyframes) {
