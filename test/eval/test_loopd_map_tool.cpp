@@ -1,0 +1,281 @@
+// loopd-map on a real map: a simulated VLP-16 drive replayed by loopd --map --output; the tool's counts, trajectory
+// and loop list are checked against what loopd published (its output log) and printed; `check` passes on the map,
+// fails (exit 1) on a copy with a loop naming a missing keyframe; missing, garbage, foreign and future-schema files
+// are refused with exit 2 and no file is created.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <unistd.h>
+
+#include <loopd/loop_event_t.hpp>
+#include <loopd/trajectory_t.hpp>
+
+#include "lcm_log.hpp"
+#include "loopd/core/trajectory_io.hpp"
+#include "message_convert.hpp"
+#include "support/run_command.hpp"
+
+using namespace loopd;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kBin = LOOPD_BINARY_DIR;
+const std::string kMapTool = kBin + "/tools/loopd-map/loopd-map";
+
+/// A map and the output log of one replay, made once per process and removed at its end.
+struct ReplayedMap {
+  fs::path dir = fs::temp_directory_path() / ("loopd_test_map_tool_" + std::to_string(::getpid()));
+  std::string map = (dir / "drive.map").string(), out = (dir / "out.lcmlog").string();
+  std::string loopd_log;  ///< what loopd printed
+
+  ReplayedMap() {
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const std::string drive = (dir / "drive.lcmlog").string();
+    int rc = 0;
+    std::string log =
+        test::run_command(kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 340 --seed 23 --route block --quiet", &rc);
+    INFO(log);
+    REQUIRE(rc == 0);
+    loopd_log = test::run_command(kBin + "/daemon/loopd --sensor vlp16 --replay " + drive + " --map " + map + " --output " + out, &rc);
+    INFO(loopd_log);
+    REQUIRE(rc == 0);
+    fs::remove(drive);  // 150 MB; the map and the output are what is checked
+  }
+  ~ReplayedMap() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+  ReplayedMap(const ReplayedMap&) = delete;
+  ReplayedMap& operator=(const ReplayedMap&) = delete;
+};
+
+const ReplayedMap& replayed() {
+  static const ReplayedMap replay;
+  return replay;
+}
+
+/// What loopd published: its loop events and its last corrected trajectory.
+struct Published {
+  std::vector<loop_event_t> events;
+  trajectory_t last_trajectory;
+  int trajectories = 0;
+};
+
+Published read_published(const std::string& path) {
+  LogReader reader;
+  std::string error;
+  REQUIRE(reader.open(path, &error));
+  Published p;
+  LogEvent ev;
+  loop_event_t e;
+  trajectory_t t;
+  while (reader.next(&ev)) {
+    if (ev.channel == channels::kLoopEvent && LogReader::decode(ev, &e)) p.events.push_back(e);
+    if (ev.channel == channels::kTrajectory && LogReader::decode(ev, &t)) {
+      p.last_trajectory = t;
+      ++p.trajectories;
+    }
+  }
+  return p;
+}
+
+/// Runs loopd-map; its exit status in `rc`, its whole output returned.
+std::string map_tool(const std::string& args, int* rc) { return test::run_command(kMapTool + " " + args, rc); }
+
+/// Runs loopd-map with --json; its last line parsed.
+nlohmann::json map_json(const std::string& args, int* rc) {
+  const std::string log = map_tool("--quiet --json " + args, rc);
+  INFO(log);
+  const auto j = nlohmann::json::parse(test::last_line(log), nullptr, false);
+  REQUIRE_FALSE(j.is_discarded());
+  return j;
+}
+
+/// A count loopd printed at the end of the replay ("keyframes 157, loops accepted 57, rejected 9").
+std::int64_t printed_count(const std::string& log, const std::string& name) {
+  std::smatch m;
+  REQUIRE(std::regex_search(log, m, std::regex("replay finished.*[ ,]" + name + " ([0-9]+)")));
+  return std::stoll(m[1]);
+}
+
+/// Runs sqlite3 on a file; false when the sqlite3 command-line shell is not installed.
+bool sqlite3(const std::string& file, const std::string& sql) {
+  int rc = 0;
+  if (test::run_command("command -v sqlite3", &rc), rc != 0) return false;
+  const std::string log = test::run_command("sqlite3 " + file + " \"" + sql + "\"", &rc);
+  INFO(log);
+  REQUIRE(rc == 0);
+  return true;
+}
+
+}  // namespace
+
+TEST_CASE("loopd-map info, trajectory and loops hold what loopd printed and published") {
+  const ReplayedMap& r = replayed();
+  const Published pub = read_published(r.out);
+  std::int64_t accepted = 0, rejected = 0;
+  for (const loop_event_t& e : pub.events) {
+    accepted += e.status == loop_event_t::STATUS_ACCEPTED ? 1 : 0;
+    rejected += e.status == loop_event_t::STATUS_REJECTED ? 1 : 0;
+  }
+  REQUIRE(pub.trajectories > 0);
+  REQUIRE(accepted >= 5);  // the block route's second visit closes loops
+  int rc = -1;
+
+  SECTION("info: keyframes, accepted and rejected loops as loopd printed and published; bytes on disk") {
+    const auto j = map_json(r.map + " info", &rc);
+    CHECK(rc == 0);
+    CHECK(j["sessions"] == 1);
+    CHECK(j["keyframes"] == printed_count(r.loopd_log, "keyframes"));
+    CHECK(j["keyframes"] == pub.last_trajectory.num_keyframes);
+    CHECK(j["loops_accepted"] == printed_count(r.loopd_log, "loops accepted"));
+    CHECK(j["loops_accepted"] == accepted);
+    CHECK(j["loops_rejected"] == printed_count(r.loopd_log, "rejected"));
+    CHECK(j["loops_rejected"] == rejected);
+    CHECK(j["correction_revision"] == pub.last_trajectory.revision);
+    CHECK(j["keyframes_with_features"].get<std::int64_t>() > 0);
+    CHECK(j["keyframes_with_features"].get<std::int64_t>() <= j["keyframes"].get<std::int64_t>());
+    CHECK(j["bytes"].get<std::int64_t>() >= static_cast<std::int64_t>(fs::file_size(r.map)));
+    CHECK(j["session_list"][0]["sensor"] == "vlp16");
+  }
+
+  SECTION("trajectory: one KITTI line per keyframe, the corrected poses loopd published last; --odometry differs") {
+    const std::string kitti = (r.dir / "corrected.kitti").string(), odom = (r.dir / "odometry.kitti").string();
+    const std::string tum = (r.dir / "corrected.tum").string();
+    auto j = map_json(r.map + " trajectory --format kitti --out " + kitti, &rc);
+    CHECK(rc == 0);
+    j = map_json(r.map + " trajectory --format kitti --odometry --out " + odom, &rc);
+    CHECK(rc == 0);
+    CHECK(j["kind"] == "odometry");
+    j = map_json(r.map + " trajectory --format tum --out " + tum, &rc);
+    CHECK(rc == 0);
+    const TrajectoryFile corrected = read_trajectory(kitti, TrajectoryFormat::kKitti);
+    const TrajectoryFile odometry = read_trajectory(odom, TrajectoryFormat::kKitti);
+    const TrajectoryFile stamped = read_trajectory(tum, TrajectoryFormat::kTum);
+    REQUIRE(corrected.ok);
+    REQUIRE(odometry.ok);
+    REQUIRE(stamped.ok);
+    const trajectory_t& t = pub.last_trajectory;
+    REQUIRE(corrected.poses.size() == static_cast<std::size_t>(t.num_keyframes));
+    REQUIRE(odometry.poses.size() == corrected.poses.size());
+    REQUIRE(stamped.poses.size() == corrected.poses.size());
+    double max_diff = 0.0, max_rot = 0.0, max_odometry_diff = 0.0;
+    for (std::size_t i = 0; i < corrected.poses.size(); ++i) {
+      const keyframe_pose_t& k = t.keyframes[i];
+      const Eigen::Vector3d published(k.position[0], k.position[1], k.position[2]);
+      const Eigen::Vector3d written = corrected.poses[i].translation();
+      // The writer prints 9 significant digits: equal to within half a unit in the 9th digit (1e-9 m near the origin).
+      for (int a = 0; a < 3; ++a) CHECK(std::abs(written[a] - published[a]) <= 1e-9 + 5e-9 * std::abs(published[a]));
+      max_diff = std::max(max_diff, (written - published).norm());
+      const Eigen::Quaterniond q(k.orientation[0], k.orientation[1], k.orientation[2], k.orientation[3]);
+      max_rot = std::max(max_rot, Eigen::AngleAxisd(q.toRotationMatrix().transpose() * corrected.poses[i].linear()).angle());
+      max_odometry_diff = std::max(max_odometry_diff, (odometry.poses[i].translation() - published).norm());
+      CHECK(stamped.stamps[i] == Approx(static_cast<double>(k.utime) * 1e-6).margin(1e-6));
+      CHECK((stamped.poses[i].translation() - written).norm() < 1e-6);
+    }
+    CHECK(max_diff < 1e-6);
+    CHECK(max_rot < 1e-7);
+    CHECK(max_odometry_diff > 0.05);  // loop corrections moved the keyframes away from odometry
+  }
+
+  SECTION("keyframes after the stored correction: T_map_odom * T_odom_sensor, the last one where loopd published it") {
+    // A copy whose correction covers only the first 100 keyframes (keys 12 bytes, poses 96 bytes each), T_map_odom
+    // kept: the later keyframes are mapped with it, and the last keyframe's corrected pose is T_map_odom's anchor.
+    const std::string copy = (r.dir / "short_correction.map").string(), kitti = (r.dir / "short.kitti").string();
+    fs::copy_file(r.map, copy, fs::copy_options::overwrite_existing);
+    if (!sqlite3(copy, "UPDATE correction SET keys = substr(keys, 1, 1200), poses = substr(poses, 1, 9600)")) {
+      WARN("sqlite3 shell not installed: skipped");
+      return;
+    }
+    const auto j = map_json(copy + " trajectory --format kitti --out " + kitti, &rc);
+    CHECK(rc == 0);
+    CHECK(j["from_correction"] == 100);
+    CHECK(j["after_correction"] == pub.last_trajectory.num_keyframes - 100);
+    const TrajectoryFile corrected = read_trajectory(kitti, TrajectoryFormat::kKitti);
+    REQUIRE(corrected.ok);
+    REQUIRE(corrected.poses.size() == static_cast<std::size_t>(pub.last_trajectory.num_keyframes));
+    const keyframe_pose_t& last = pub.last_trajectory.keyframes.back();
+    const Eigen::Vector3d published(last.position[0], last.position[1], last.position[2]);
+    CHECK((corrected.poses.back().translation() - published).norm() < 1e-6);
+  }
+
+  SECTION("loops: the accepted events by default, every decision with --all, in event order") {
+    auto j = map_json(r.map + " loops", &rc);
+    CHECK(rc == 0);
+    CHECK(j["accepted"] == accepted);
+    REQUIRE(j["loops"].size() == static_cast<std::size_t>(accepted));
+    std::size_t n = 0;
+    for (const loop_event_t& e : pub.events) {
+      if (e.status != loop_event_t::STATUS_ACCEPTED) continue;
+      CHECK(j["loops"][n]["event_id"] == e.event_id);
+      CHECK(j["loops"][n]["query"] == "0/" + std::to_string(e.query_id));
+      CHECK(j["loops"][n]["match"] == "0/" + std::to_string(e.match_id));
+      ++n;
+    }
+    j = map_json(r.map + " loops --all", &rc);
+    CHECK(rc == 0);
+    CHECK(j["rejected"] == rejected);
+    CHECK(j["loops"].size() == static_cast<std::size_t>(accepted + rejected));
+    const std::string table = map_tool(r.map + " loops", &rc);
+    CHECK(table.find("T_match_query") != std::string::npos);
+    CHECK(table.find(std::to_string(accepted) + " accepted") != std::string::npos);
+  }
+}
+
+TEST_CASE("loopd-map check passes on a map, fails on a tampered copy; bad files are refused with exit 2") {
+  const ReplayedMap& r = replayed();
+  int rc = -1;
+  auto j = map_json(r.map + " check", &rc);
+  CHECK(rc == 0);
+  CHECK(j["ok"] == true);
+
+  SECTION("a loop naming a keyframe the map does not hold: exit 1, the problem named") {
+    const std::string copy = (r.dir / "tampered.map").string();
+    fs::copy_file(r.map, copy, fs::copy_options::overwrite_existing);
+    if (!sqlite3(copy, "UPDATE loops SET match_idx = 99999 WHERE event_id = (SELECT min(event_id) FROM loops WHERE status = 1)")) {
+      WARN("sqlite3 shell not installed: tampering skipped");
+      return;
+    }
+    j = map_json(copy + " check", &rc);
+    CHECK(rc == 1);
+    CHECK(j["ok"] == false);
+    REQUIRE(j["problems"].size() == 1);
+    CHECK(j["problems"][0].get<std::string>().find("0/99999") != std::string::npos);
+  }
+
+  SECTION("a map of a future schema version and an SQLite file that is not a map: exit 2 with the reason") {
+    const std::string future = (r.dir / "future.map").string(), foreign = (r.dir / "foreign.db").string();
+    fs::copy_file(r.map, future, fs::copy_options::overwrite_existing);
+    if (!sqlite3(future, "PRAGMA user_version = 99") || !sqlite3(foreign, "CREATE TABLE t (x)")) {
+      WARN("sqlite3 shell not installed: skipped");
+      return;
+    }
+    std::string log = map_tool(future + " info", &rc);
+    CHECK(rc == 2);
+    CHECK(log.find("schema version 99") != std::string::npos);
+    log = map_tool(foreign + " check", &rc);
+    CHECK(rc == 2);
+    CHECK(log.find("not a loopd map") != std::string::npos);
+  }
+
+  SECTION("garbage, an empty file and a missing file: exit 2 naming the file; the missing one is not created") {
+    const std::string garbage = (r.dir / "garbage.map").string(), empty = (r.dir / "empty.map").string();
+    const std::string missing = (r.dir / "missing.map").string();
+    REQUIRE(test::run_command("head -c 8192 /dev/urandom > " + garbage + " && : > " + empty, &rc).empty());
+    for (const std::string& file : {garbage, empty, missing}) {
+      for (const std::string command : {"check", "info", "loops", "trajectory --format kitti"}) {
+        const std::string log = map_tool(file + " " + command, &rc);
+        INFO(command << ": " << log);
+        CHECK(rc == 2);
+        CHECK(log.find(file) != std::string::npos);
+      }
+    }
+    CHECK_FALSE(fs::exists(missing));
+    CHECK(fs::file_size(empty) == 0);
+  }
+}

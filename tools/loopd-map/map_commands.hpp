@@ -1,0 +1,36 @@
+#pragma once
+/// @file The loopd-map commands: each reads an opened map, prints a readable table and, with --json, one JSON object as
+/// the last stdout line; each returns the tool's exit status.
+#include <string>
+
+#include "loopd/map/map_store.hpp"
+
+namespace loopd::tools {
+
+constexpr int kExitOk = 0, kExitCheckFailed = 1, kExitBadInput = 2;
+
+/// @brief What every command is told besides the map.
+struct CommandOptions {
+  bool json = false;      ///< one JSON object as the last stdout line
+  bool progress = false;  ///< progress bar on stderr while reading keyframes
+};
+
+/// @brief `info`: sessions, keyframe and loop counts, correction revision, bytes on disk.
+int run_info(MapStore& store, const CommandOptions& options);
+
+/// @brief What `trajectory` writes.
+struct TrajectoryOptions {
+  std::string format = "tum";  ///< "tum" or "kitti"
+  bool odometry = false;       ///< T_odom_sensor instead of the corrected poses
+  std::string out;             ///< file to write; empty: stdout
+};
+/// @brief `trajectory`: one pose per keyframe, corrected (as loopd publishes them) or odometry.
+int run_trajectory(MapStore& store, const TrajectoryOptions& trajectory, const CommandOptions& options);
+
+/// @brief `loops`: the accepted loop decisions (every decision when `all`).
+int run_loops(MapStore& store, bool all, const CommandOptions& options);
+
+/// @brief `check`: the store's integrity check and map invariants; kExitCheckFailed when it fails.
+int run_check(MapStore& store, const CommandOptions& options);
+
+}  // namespace loopd::tools

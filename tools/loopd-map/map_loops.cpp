@@ -1,0 +1,61 @@
+// loopd-map loops: the loop decisions a map holds.
+#include <iostream>
+
+#include "map_commands.hpp"
+#include "tool_output.hpp"
+
+namespace loopd::tools {
+namespace {
+
+/// @brief A score column: "-" when the stage did not compute it (stored as a negative value).
+std::string score(double v) { return v < 0.0 ? "-" : fmt(v, 3); }
+
+std::string status_name(int status) { return status == 1 ? "accepted" : status == 2 ? "rejected" : "status " + std::to_string(status); }
+
+void add_row(Table& table, const LoopRecord& r) {
+  const Eigen::Vector3d t = r.T_match_query.translation();
+  table.add({std::to_string(r.event_id), to_string(r.query), to_string(r.match), status_name(r.status), r.stage, score(r.descriptor_distance),
+             score(r.lcp_fraction), score(r.icp_residual), score(r.icp_fitness), fmt(t.x(), 3) + " " + fmt(t.y(), 3) + " " + fmt(t.z(), 3)});
+}
+
+nlohmann::json loop_json(const LoopRecord& r) {
+  const Eigen::Vector3d t = r.T_match_query.translation();
+  return {{"event_id", r.event_id},
+          {"query", to_string(r.query)},
+          {"match", to_string(r.match)},
+          {"query_utime", r.query_utime},
+          {"match_utime", r.match_utime},
+          {"status", status_name(r.status)},
+          {"stage", r.stage},
+          {"reason", r.reason},
+          {"gate_distance", r.gate_distance},
+          {"descriptor_distance", r.descriptor_distance},
+          {"lcp_fraction", r.lcp_fraction},
+          {"icp_residual", r.icp_residual},
+          {"icp_fitness", r.icp_fitness},
+          {"hungarian_consistency", r.hungarian_consistency},
+          {"degeneracy", r.degeneracy},
+          {"translation", {t.x(), t.y(), t.z()}}};
+}
+
+}  // namespace
+
+int run_loops(MapStore& store, bool all, const CommandOptions& options) {
+  Table table({"event", "query", "match", "status", "stage", "descriptor", "lcp", "icp residual [m]", "icp fitness", "T_match_query t [m]"});
+  nlohmann::json list = nlohmann::json::array();
+  std::int64_t accepted = 0, rejected = 0;
+  const StoreStatus read = store.for_each_loop(!all, [&](LoopRecord&& r) {
+    add_row(table, r);
+    if (options.json) list.push_back(loop_json(r));
+    ++(r.status == 1 ? accepted : rejected);
+  });
+  if (!read.ok()) {
+    std::cerr << "loopd-map: " << read.message << "\n";
+    return kExitBadInput;
+  }
+  std::cout << table.str() << accepted << " accepted" << (all ? ", " + std::to_string(rejected) + " rejected" : std::string()) << "\n";
+  if (options.json) print_json_line({{"accepted", accepted}, {"rejected", rejected}, {"all", all}, {"loops", list}});
+  return kExitOk;
+}
+
+}  // namespace loopd::tools

@@ -1,0 +1,40 @@
+#include "open_map.hpp"
+
+#include <sys/stat.h>
+
+namespace loopd::tools {
+
+ReadOnlyMap open_map_read_only(const std::string& path) {
+  ReadOnlyMap out;
+  const std::string file = path.rfind("sqlite://", 0) == 0 ? path.substr(9) : path;
+  if (file.empty() || file == "sqlite::memory:" || (path.find("://") != std::string::npos && path.rfind("sqlite://", 0) != 0)) {
+    out.error = "map " + path + ": expected a map file (FILE or sqlite://FILE)";
+    return out;
+  }
+  // Checked here, before SQLite: a read-only open never creates the file, but the message should name the cause.
+  struct stat st {};
+  if (::stat(file.c_str(), &st) != 0) {
+    out.error = "map " + file + ": no such file";
+    return out;
+  }
+  if (S_ISDIR(st.st_mode)) {
+    out.error = "map " + file + ": is a directory, not a map file";
+    return out;
+  }
+  if (st.st_size == 0) {
+    out.error = "map " + file + ": is empty (0 bytes), not a loopd map";
+    return out;
+  }
+  MapStoreConfig config;
+  config.uri = path;
+  config.read_only = true;
+  OpenedMapStore opened = open_map_store(config);
+  if (!opened.status.ok()) {
+    out.error = opened.status.message.empty() ? "map " + file + ": cannot open (" + to_string(opened.status.code) + ")" : opened.status.message;
+    return out;
+  }
+  out.store = std::move(opened.store);
+  return out;
+}
+
+}  // namespace loopd::tools

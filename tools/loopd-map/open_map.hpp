@@ -1,0 +1,20 @@
+#pragma once
+/// @file Opening a map for reading only: never creates a file, and says why a path is not a readable map.
+#include <memory>
+#include <string>
+
+#include "loopd/map/map_store.hpp"
+
+namespace loopd::tools {
+
+/// @brief The opened map, or error naming the file (store null).
+struct ReadOnlyMap {
+  std::unique_ptr<MapStore> store;
+  std::string error;
+};
+
+/// @brief Opens `path` ("FILE" or "sqlite://FILE") read-only. A missing path, a directory, an empty file, a file that
+/// is not a loopd map and a map of another schema version are errors.
+ReadOnlyMap open_map_read_only(const std::string& path);
+
+}  // namespace loopd::tools
