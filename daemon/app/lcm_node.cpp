@@ -1,6 +1,8 @@
 #include "lcm_node.hpp"
 
+#include <algorithm>
 #include <cerrno>
+#include <cstdlib>
 #include <chrono>
 #include <cstring>
 #include <condition_variable>
@@ -14,16 +16,17 @@
 #include <variant>
 
 #include <pthread.h>
+#include <sys/stat.h>
 
 #include "bounded_decode.hpp"
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
 #include "map_writer.hpp"
 #include "output_messages.hpp"
+#include "trajectory_publisher.hpp"
 
 namespace loopd {
 namespace {
-#include "trajectory_publisher.hpp"
 
 double wall_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 std::int64_t wall_utime() {
@@ -64,6 +67,7 @@ class OutputSink : public EngineSink {
     if (lcm_) lcm_->publish(channel, &msg);
     if (log_) {
       log_->write_message(channel, t, msg);
+      log_->flush();  // "published" means in the file: a kill must not take buffered events with it
       ++written_;
     }
   }
@@ -74,10 +78,10 @@ class OutputSink : public EngineSink {
   lcm::LCM* lcm_;
   LogWriter* log_;
   bool data_time_;
+  TrajectoryPublisher trajectory_{node_.trajectory_output};
   std::mutex mutex_;
   std::int64_t written_ = 0;
   std::int64_t last_data_utime_ = 0;
-  TrajectoryPublisher trajectory_{node_.trajectory_output};
 };
 
 /// Decoded input waiting for the ingest thread, with the time it arrived (wall clock live, logger time in replay).
@@ -269,6 +273,12 @@ bool open_map(const NodeConfig& node, MapSession* map) {
   return true;
 }
 
+/// Fault injection for the crash test only: LOOPD_FAULT_CORRECTION_DELAY_MS (0 when unset).
+int fault_correction_delay_ms() {
+  const char* v = std::getenv("LOOPD_FAULT_CORRECTION_DELAY_MS");
+  return v ? std::max(0, std::atoi(v)) : 0;
+}
+
 /// The session this process writes (one per map until sessions arrive): created on a new map.
 bool ensure_session(MapStore& store, const std::string& sensor, const std::string& source) {
   const StoreResult<std::vector<SessionRecord>> sessions = store.sessions();
@@ -281,6 +291,25 @@ bool ensure_session(MapStore& store, const std::string& sensor, const std::strin
   }
   if (!status.ok()) std::cerr << "loopd: cannot use the map: " << status.message << std::endl;
   return status.ok();
+}
+
+/// The map's part of status_t: sizes from the file system (the store belongs to the engine's thread).
+MapStatus map_status(const MapSession& map, const NodeConfig& node, const EngineStats& s) {
+  MapStatus m;
+  m.cached_bytes = s.bytes_per_keyframe * s.keyframes;
+  if (!map.store) return m;
+  m.path = node.map.uri;
+  const std::string file = m.path.rfind("sqlite://", 0) == 0 ? m.path.substr(9) : m.path;
+  for (const std::string& f : {file, file + "-wal"}) {
+    struct stat st {};
+    if (::stat(f.c_str(), &st) == 0) m.bytes += static_cast<std::int64_t>(st.st_size);
+  }
+  if (map.writer) {
+    const MapWriterStats w = map.writer->stats();
+    m.write_failures = w.failures;
+    m.last_error = w.last_error;
+  }
+  return m;
 }
 
 /// Brings the engine to where the map stopped. False, with the reason printed, when it cannot.
@@ -308,9 +337,10 @@ std::optional<std::string> NodeConfig::validate() const {
     if (c->empty()) return "channels: channel names must not be empty";
   if (input_queue_capacity < 1) return "input_queue_capacity must be >= 1";
   if (log_every_n < 1) return "log_every_n must be >= 1";
-  if (!(status_period > 0.0)) return "status_period must be > 0 [s]";
+  if (!(status_period > 0.0 && status_period <= 1e6)) return "status_period must be in (0, 1e6] [s]";
   if (!map.uri.empty())
     if (auto e = map.validate()) return "map: " + *e;
+  if (auto e = trajectory_output.validate()) return *e;
   return std::nullopt;
 }
 
@@ -339,7 +369,6 @@ bool check_receive_buffer(const std::string& lcm_url, std::int64_t points) {
 
 int run_live(const NodeConfig& node, const EngineConfig& engine_config, const std::atomic<bool>& stop, RunSummary* summary) {
   lcm::LCM lcm(node.lcm_url);
-  if (auto e = trajectory_output.validate()) return *e;
   if (!lcm.good()) {
     std::cerr << "loopd: cannot initialise LCM with URL '" << node.lcm_url << "'" << std::endl;
     return 3;
@@ -351,7 +380,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   MapSession map;
   if (!open_map(node, &map)) return 2;
   OutputSink sink(node, &lcm, nullptr, false);
-  if (map.store) map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n);
+  if (map.store) map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n, fault_correction_delay_ms());
   EngineConfig live_config = engine_config;
   live_config.detector.parallel_candidates = true;  // spare cores shorten the latency tail; same decisions
   LoopdEngine engine(live_config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
@@ -399,7 +428,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
         next_status = now + node.status_period;
         const EngineStats s = engine.stats();
         health_log.update(s, node.log_every_n);
-        sink.publish(node.status_channel, wall_utime(), make_status(wall_utime(), now - start, s, counters(handler, s), resident_memory_bytes()));
+        sink.publish(node.status_channel, wall_utime(), make_status(wall_utime(), now - start, s, counters(handler, s), resident_memory_bytes(), map_status(map, node, s)));
       }
     }
   });
@@ -454,7 +483,7 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   EngineConfig config = engine_config;
   config.block_when_full = true;  // replay never sheds: it waits for the workers
   OutputSink sink(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
-  if (map.store) map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n);
+  if (map.store) map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n, fault_correction_delay_ms());
   LoopdEngine engine(config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
   if (!resume_from_map(map, engine, true, engine_config.detector.sensor, "replay " + input_log)) return 2;
   InputHandler handler(node, decode_limits(engine_config));
@@ -469,7 +498,7 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
       EngineStats s = engine.stats();
       health_log.update(s, node.log_every_n);
       sink.publish(node.status_channel, last_data_utime,
-                   make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s), resident_memory_bytes()));
+                   make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s), resident_memory_bytes(), map_status(map, node, s)));
     }
     return true;
   };
@@ -481,10 +510,11 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   }
   if (!reader.problems().empty()) std::cerr << "loopd: " << reader.problems() << " (the rest of the log was read)" << std::endl;
   engine.finish();
+  sink.finish_trajectory();
   const EngineStats s = engine.stats();
   health_log.update(s, node.log_every_n);
   sink.publish(node.status_channel, last_data_utime,
-               make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s), resident_memory_bytes()));
+               make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s), resident_memory_bytes(), map_status(map, node, s)));
   fill_summary(summary, engine, handler);
   if (summary) {
     summary->seconds = wall_s() - start;
@@ -497,4 +527,3 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
 }
 
 }  // namespace loopd
-  sink.finish_trajectory();

@@ -1,6 +1,8 @@
 #include "map_writer.hpp"
 
+#include <chrono>
 #include <cstdio>
+#include <thread>
 
 #include "map_records_convert.hpp"
 
@@ -38,6 +40,7 @@ void MapWriter::on_decision(const LoopDecision& decision) {
 }
 
 void MapWriter::on_correction(const CorrectionOutput& correction) {
+  if (correction_delay_ms_ > 0) std::this_thread::sleep_for(std::chrono::milliseconds(correction_delay_ms_));
   // The correction and "its keyframe is decided" in one transaction: a stop between them would leave a correction
   // naming a keyframe that resume removes.
   StoreStatus s = store_.begin();

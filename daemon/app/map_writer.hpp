@@ -21,7 +21,10 @@ struct MapWriterStats {
 /// and the result is still passed on: loopd keeps detecting in memory and says so.
 class MapWriter : public EngineSink {
  public:
-  MapWriter(MapStore& store, EngineSink& next, int log_every_n) : store_(store), next_(next), log_every_n_(log_every_n) {}
+  /// @param correction_delay_ms fault injection for the crash test (LOOPD_FAULT_CORRECTION_DELAY_MS): widens the window
+  ///        between an accepted loop's commit and its correction's, as a long pose-graph solve does.
+  MapWriter(MapStore& store, EngineSink& next, int log_every_n, int correction_delay_ms = 0)
+      : store_(store), next_(next), log_every_n_(log_every_n), correction_delay_ms_(correction_delay_ms) {}
 
   void on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor) override;
   void on_decision(const LoopDecision& decision) override;
@@ -35,6 +38,7 @@ class MapWriter : public EngineSink {
   MapStore& store_;
   EngineSink& next_;
   int log_every_n_;
+  int correction_delay_ms_;
   bool decided_with_correction_ = false;  ///< the correction's transaction already marked the keyframe decided
   mutable std::mutex stats_mutex_;
   MapWriterStats stats_;

@@ -75,7 +75,7 @@ trajectory_t to_message(const CorrectionOutput& c, std::int64_t utime) {
 }
 
 status_t make_status(std::int64_t utime, double uptime_s, const EngineStats& s, const std::vector<ChannelCounters>& channels,
-                     std::int64_t memory_bytes) {
+                     std::int64_t memory_bytes, const MapStatus& map) {
   status_t m{};
   m.utime = utime;
   m.uptime_s = uptime_s;
@@ -103,6 +103,11 @@ status_t make_status(std::int64_t utime, double uptime_s, const EngineStats& s, 
   m.clock_jumps = s.clock_jumps;
   m.odometry_resets = s.odometry_resets;
   m.sensor_changes = s.sensor_changes;
+  m.map_path = map.path;
+  m.map_bytes = map.bytes;
+  m.map_cached_bytes = map.cached_bytes;
+  m.map_write_failures = map.write_failures;
+  m.map_error = map.last_error;
   return m;
 }
 

@@ -26,8 +26,17 @@ struct ChannelCounters {
 };
 
 /// @brief status_t from the engine's and the channels' counters.
+/// @brief The map store's part of status_t.
+struct MapStatus {
+  std::string path;                  ///< "" without a map
+  std::int64_t bytes = 0;            ///< on disk
+  std::int64_t cached_bytes = 0;     ///< keyframe features in memory
+  std::int64_t write_failures = 0;
+  std::string last_error;
+};
+
 status_t make_status(std::int64_t utime, double uptime_s, const EngineStats& s, const std::vector<ChannelCounters>& channels,
-                     std::int64_t memory_bytes);
+                     std::int64_t memory_bytes, const MapStatus& map = {});
 
 /// @brief Resident memory of this process [bytes] (VmRSS), 0 when unknown.
 std::int64_t resident_memory_bytes();

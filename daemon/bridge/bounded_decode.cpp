@@ -167,6 +167,9 @@ void walk(WireWalker& w, const DecodeLimits& limits, const status_t*) {
   w.skip("shed .. memory_bytes", 8, 7);
   w.string("device", limits.max_string);
   w.skip("scans_lost_estimate .. sensor_changes", 8, 4);
+  w.string("map_path", limits.max_string);
+  w.skip("map_bytes .. map_write_failures", 8, 3);
+  w.string("map_error", limits.max_string);
 }
 
 }  // namespace
@@ -215,9 +218,6 @@ template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimit
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, loop_event_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, keyframe_pose_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, trajectory_t*);
-template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, channel_stats_t*);
-template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, status_t*);
-
 
 DecodeResult decode_trajectory_v1(const void* data, std::size_t size, const DecodeLimits& limits, trajectory_t* out) {
   DecodeResult result;
@@ -249,4 +249,7 @@ DecodeResult decode_trajectory_v1(const void* data, std::size_t size, const Deco
   for (int i = 0; i < 8; ++i) upgraded.push_back(static_cast<std::uint8_t>(static_cast<std::uint64_t>(num) >> (56 - 8 * i)));
   return decode_bounded(upgraded.data(), upgraded.size(), limits, out);
 }
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, channel_stats_t*);
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, status_t*);
+
 }  // namespace loopd

@@ -1,6 +1,7 @@
 #include "lcm_log.hpp"
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 
 #include <lcm/eventlog.h>
@@ -36,6 +37,10 @@ bool LogWriter::write(const std::string& channel, std::int64_t timestamp, const 
 
 bool LogWriter::append_bytes(const void* data, std::size_t size) {
   return log_ != nullptr && std::fwrite(data, 1, size, log_->f) == size;
+}
+
+void LogWriter::flush() {
+  if (log_) std::fflush(log_->f);
 }
 
 void LogWriter::close() {

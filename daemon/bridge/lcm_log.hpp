@@ -36,6 +36,8 @@ class LogWriter {
   }
   /// @brief Writes bytes as they are, outside any event (tests use it to damage a log on purpose).
   bool append_bytes(const void* data, std::size_t size);
+  /// @brief Hands what was written to the operating system (it then survives a kill of this process).
+  void flush();
   void close();
   std::int64_t events_written() const { return written_; }
 

@@ -105,6 +105,19 @@ TEST_CASE("loop_event_t, trajectory_t and status_t round-trip") {
   CHECK(st.channels[0].malformed == 1);
   CHECK(st.keyframes == 12);
   CHECK(st.device == "cpu");
+
+  MapStatus map;
+  map.path = "/var/lib/loopd/map.db";
+  map.bytes = 123456789;
+  map.cached_bytes = 4096;
+  map.write_failures = 2;
+  map.last_error = "disk full";
+  const status_t sm = round_trip(make_status(1, 2.0, s, {}, 1024, map));
+  CHECK(sm.map_path == "/var/lib/loopd/map.db");
+  CHECK(sm.map_bytes == 123456789);
+  CHECK(sm.map_cached_bytes == 4096);
+  CHECK(sm.map_write_failures == 2);
+  CHECK(sm.map_error == "disk full");
 }
 
 TEST_CASE("truncated and garbage bytes do not decode") {

@@ -20,7 +20,7 @@ std::int64_t cell_key(std::int64_t ix, std::int64_t iy) {
 
 std::optional<std::string> DistanceGateConfig::validate() const {
   if (!(travel_fraction > 0.0)) return "gate.travel_fraction must be > 0";
-  if (!(min_radius > 0.0)) return "gate.min_radius must be > 0";
+  if (!(min_radius >= 1e-3)) return "gate.min_radius must be >= 0.001 [m]";  // cells of max_radius stay in int64 range
   if (!(max_radius >= min_radius)) return "gate.max_radius must be >= gate.min_radius";
   if (min_index_gap < 1) return "gate.min_index_gap must be >= 1";
   if (!(min_travel_gap >= 0.0)) return "gate.min_travel_gap must be >= 0";

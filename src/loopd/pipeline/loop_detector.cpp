@@ -19,6 +19,7 @@ std::optional<std::string> LoopDetectorConfig::validate() const {
   if (!(max_descriptor_distance > 0.0)) return "max_descriptor_distance must be > 0";
   if (max_candidates_per_keyframe < 1) return "max_candidates_per_keyframe must be >= 1";
   if (guided_window < 0) return "guided_window must be >= 0";
+  if (!(plane_cell_size >= 1e-3)) return "plane_cell_size must be >= 0.001 [m]";  // cell indices stay in int64 range
   return std::nullopt;
 }
 
