@@ -314,7 +314,7 @@ TEST_CASE("a log cut inside its last event ends at the last whole event and says
   CHECK(error.find("not a regular file") != std::string::npos);
 }
 
-TEST_CASE("trajectory_t: full and total_keyframes decode; a version-1 message (before them) decodes as a full snapshot") {
+TEST_CASE("trajectory_t: full and total_keyframes decode, and a version-1 message (before them) decodes as a full snapshot") {
   trajectory_t t = sample_trajectory(3);
   t.revision = 7;
   t.keyframes[1].position[0] = 2.5;

@@ -109,7 +109,7 @@ TEST_CASE("trajectory_t: period 0 and thresholds 0 publish every keyframe with e
   CHECK_FALSE(publisher.final_snapshot(10));  // the last message was full already
 }
 
-TEST_CASE("trajectory_t: a changed keyframe list or a clock that went back forces a snapshot; the end snapshot is exact") {
+TEST_CASE("trajectory_t: a changed keyframe list or a clock that went back forces a snapshot, and the end snapshot is exact") {
   TrajectoryPublisher publisher(TrajectoryPublisherConfig{});
   CorrectionOutput c = straight_line(4, 1);
   REQUIRE(publisher.make_message(c, 100 * kSecond).full);
