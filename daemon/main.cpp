@@ -29,8 +29,9 @@ void print_summary(const loopd::RunSummary& s, bool replay) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"loopd: lidar loop-closure daemon. Listens for scans and odometry poses on LCM, detects and verifies loops\n"
-               "(M2DP + plane-based 4PCS + GICP + Hungarian check), publishes loop events and corrected trajectories."};
+  CLI::App app{
+      "loopd: lidar loop-closure daemon. Listens for scans and odometry poses on LCM, detects and verifies loops\n"
+      "(M2DP + plane-based 4PCS + GICP + Hungarian check), publishes loop events and corrected trajectories."};
   std::string lcm_url, config_path, replay_log, output_log, sensor, map_path;
   int threads = -1;
   bool print_config = false, quiet = false;
@@ -41,8 +42,9 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads (0 = hardware threads; overrides the config)");
   app.add_option("--replay", replay_log, "process an lcm-logger file as fast as possible instead of listening live");
   app.add_option("--output", output_log, "with --replay: write every published message to this lcm-logger file");
-  app.add_option("--map", map_path, "map store (SQLite file, created when missing): keyframes, loops and corrections outlive the "
-                                    "process and a restart resumes (overrides map.path)");
+  app.add_option("--map", map_path,
+                 "map store (SQLite file, created when missing): keyframes, loops and corrections outlive the "
+                 "process and a restart resumes (overrides map.path)");
   app.add_flag("--print-config", print_config, "print the effective configuration as YAML and exit");
   app.add_flag("--quiet", quiet, "no log line per accepted loop");
   CLI11_PARSE(app, argc, argv);

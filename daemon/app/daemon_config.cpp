@@ -203,9 +203,11 @@ void bind_stage_configs(Binder& b, LoopDetectorConfig& d) {
   b.field("verify.reject_unjudgeable_consistency", v.reject_unjudgeable_consistency);
 
   LoopCorrectorConfig& c = d.correction;
-  b.choice("correction.method", c.method,
-           {{"heuristic+graph", CorrectionMethod::kHeuristicThenGraph}, {"heuristic", CorrectionMethod::kHeuristic}, {"graph", CorrectionMethod::kGraph}});
-  b.choice("correction.graph.loop_loss", c.graph.loop_loss, {{"cauchy", RobustLoss::kCauchy}, {"huber", RobustLoss::kHuber}, {"none", RobustLoss::kNone}});
+  b.choice(
+      "correction.method", c.method,
+      {{"heuristic+graph", CorrectionMethod::kHeuristicThenGraph}, {"heuristic", CorrectionMethod::kHeuristic}, {"graph", CorrectionMethod::kGraph}});
+  b.choice("correction.graph.loop_loss", c.graph.loop_loss,
+           {{"cauchy", RobustLoss::kCauchy}, {"huber", RobustLoss::kHuber}, {"none", RobustLoss::kNone}});
   b.field("correction.graph_interval", c.graph_interval);
   b.field("correction.graph_interval_fraction", c.graph_interval_fraction);
   b.field("correction.graph_now_translation", c.graph_now_translation);

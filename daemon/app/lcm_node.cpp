@@ -198,7 +198,8 @@ void ingest(LoopdEngine& engine, InputHandler& h, Input& in, const NodeConfig& n
       std::lock_guard<std::mutex> lock(h.counters_mutex_);
       ++h.pose_.accepted;
     } else {
-      log_anomaly("rejected a pose with a duplicate or out-of-order utime " + std::to_string(pose->utime), engine.stats().invalid_poses, node.log_every_n);
+      log_anomaly("rejected a pose with a duplicate or out-of-order utime " + std::to_string(pose->utime), engine.stats().invalid_poses,
+                  node.log_every_n);
     }
   }
 }
@@ -216,8 +217,8 @@ class InputHealthLog {
                    static_cast<long long>(s.scans_lost_estimate), 100.0 * s.scan_loss_fraction);
     }
     report("the data clock jumped; following the new time line", s.clock_jumps, &clock_jumps_, every);
-    report("odometry reset (a jump the vehicle cannot have made); the trajectory continues from the last pose", s.odometry_resets,
-           &odometry_resets_, every);
+    report("odometry reset (a jump the vehicle cannot have made); the trajectory continues from the last pose", s.odometry_resets, &odometry_resets_,
+           every);
     report("the sensor layout changed (points per scan or rings)", s.sensor_changes, &sensor_changes_, every);
   }
 
@@ -323,7 +324,8 @@ bool resume_from_map(MapSession& map, LoopdEngine& engine, bool skip_stored_keyf
   }
   std::fprintf(stderr, "loopd: map %s: %lld keyframes, %lld decisions, correction revision %lld restored in %.2f s", map.store->uri().c_str(),
                static_cast<long long>(r.keyframes), static_cast<long long>(r.decisions), static_cast<long long>(r.revision), r.seconds);
-  if (r.dropped_undecided > 0) std::fprintf(stderr, "; %lld keyframe(s) cut off by the stop are processed again", static_cast<long long>(r.dropped_undecided));
+  if (r.dropped_undecided > 0)
+    std::fprintf(stderr, "; %lld keyframe(s) cut off by the stop are processed again", static_cast<long long>(r.dropped_undecided));
   if (!r.corrections.empty()) std::fprintf(stderr, "; %zu correction(s) cut off by the stop made again", r.corrections.size());
   std::fprintf(stderr, "\n");
   return true;
@@ -428,13 +430,14 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
         next_status = now + node.status_period;
         const EngineStats s = engine.stats();
         health_log.update(s, node.log_every_n);
-        sink.publish(node.status_channel, wall_utime(), make_status(wall_utime(), now - start, s, counters(handler, s), resident_memory_bytes(), map_status(map, node, s)));
+        sink.publish(node.status_channel, wall_utime(),
+                     make_status(wall_utime(), now - start, s, counters(handler, s), resident_memory_bytes(), map_status(map, node, s)));
       }
     }
   });
 
-  std::cerr << "loopd: listening on " << node.scan_channel << " and " << node.pose_channel << " (" << node.lcm_url << "), descriptor device: "
-            << engine.stats().device << std::endl;
+  std::cerr << "loopd: listening on " << node.scan_channel << " and " << node.pose_channel << " (" << node.lcm_url
+            << "), descriptor device: " << engine.stats().device << std::endl;
   while (!stop.load()) {
     if (lcm.handleTimeout(100) < 0) {
       if (stop.load() || errno == EINTR) continue;  // a signal interrupted the wait
@@ -498,7 +501,8 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
       EngineStats s = engine.stats();
       health_log.update(s, node.log_every_n);
       sink.publish(node.status_channel, last_data_utime,
-                   make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s), resident_memory_bytes(), map_status(map, node, s)));
+                   make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s),
+                               resident_memory_bytes(), map_status(map, node, s)));
     }
     return true;
   };
@@ -514,7 +518,8 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   const EngineStats s = engine.stats();
   health_log.update(s, node.log_every_n);
   sink.publish(node.status_channel, last_data_utime,
-               make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s), resident_memory_bytes(), map_status(map, node, s)));
+               make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s),
+                           resident_memory_bytes(), map_status(map, node, s)));
   fill_summary(summary, engine, handler);
   if (summary) {
     summary->seconds = wall_s() - start;

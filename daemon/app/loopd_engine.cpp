@@ -271,8 +271,7 @@ void LoopdEngine::finish() {
     stats_.pending_scans = 0;
   }
   std::unique_lock<std::mutex> lock(done_mutex_);
-  while (!done_cv_.wait_for(lock, std::chrono::milliseconds(20), [&] { return sequenced_.load() >= next_sequence_; })) {
-  }
+  while (!done_cv_.wait_for(lock, std::chrono::milliseconds(20), [&] { return sequenced_.load() >= next_sequence_; })) {}
 }
 
 EngineStats LoopdEngine::stats() const {

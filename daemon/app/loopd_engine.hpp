@@ -26,12 +26,12 @@ namespace loopd {
 struct EngineConfig {
   AssociationConfig association;
   LoopDetectorConfig detector;
-  int num_threads = 0;                   ///< feature/verification workers; 0 = hardware threads
-  int queue_capacity = 16;               ///< keyframes waiting for a worker (see ready_capacity() for the sequential stage)
-  bool block_when_full = false;          ///< replay: wait for workers; live: shed (see README "Load shedding")
+  int num_threads = 0;                         ///< feature/verification workers; 0 = hardware threads
+  int queue_capacity = 16;                     ///< keyframes waiting for a worker (see ready_capacity() for the sequential stage)
+  bool block_when_full = false;                ///< replay: wait for workers; live: shed (see README "Load shedding")
   std::int64_t max_points_per_scan = 2000000;  ///< larger scans are rejected as invalid
-  double clock_jump = 2.0;               ///< [s] data clock vs arrival clock disagreement that is a clock jump (input.clock_jump)
-  double max_odometry_speed = 60.0;      ///< [m/s] faster apparent odometry motion is an odometry reset (input.max_odometry_speed)
+  double clock_jump = 2.0;                     ///< [s] data clock vs arrival clock disagreement that is a clock jump (input.clock_jump)
+  double max_odometry_speed = 60.0;            ///< [m/s] faster apparent odometry motion is an odometry reset (input.max_odometry_speed)
   std::optional<std::string> validate() const;
 };
 
@@ -50,12 +50,12 @@ class EngineSink {
 /// @brief Counters reported in status_t.
 struct EngineStats {
   std::int64_t scans_in = 0, poses_in = 0;
-  std::int64_t invalid_scans = 0;       ///< empty, all non-finite, too large, duplicate or out-of-order utime
-  std::int64_t invalid_poses = 0;       ///< duplicate or out-of-order utime
-  std::int64_t dropped_no_pose = 0;     ///< scans with no pose within tolerance / hold time
+  std::int64_t invalid_scans = 0;    ///< empty, all non-finite, too large, duplicate or out-of-order utime
+  std::int64_t invalid_poses = 0;    ///< duplicate or out-of-order utime
+  std::int64_t dropped_no_pose = 0;  ///< scans with no pose within tolerance / hold time
   std::int64_t keyframes = 0;
-  std::int64_t shed = 0;                ///< keyframes whose features were skipped because the queue was full
-  std::int64_t feature_failures = 0;    ///< keyframes whose descriptor/segmentation failed (too few points...)
+  std::int64_t shed = 0;              ///< keyframes whose features were skipped because the queue was full
+  std::int64_t feature_failures = 0;  ///< keyframes whose descriptor/segmentation failed (too few points...)
   std::int64_t nan_points = 0;
   int queue_depth = 0;
   int pending_scans = 0;
@@ -128,7 +128,7 @@ class LoopdEngine {
   SensorLayoutWatch layout_;
   KeyframeSelector selector_;
   LoopDetector detector_;
-  SessionId session_ = 0;               ///< one session per process until the map store brings sessions
+  SessionId session_ = 0;  ///< one session per process until the map store brings sessions
   std::int64_t next_keyframe_index_ = 0;
   std::int64_t next_sequence_ = 0;
   std::vector<std::int64_t> stored_utimes_;  ///< resume: scan times of the stored keyframes, in order

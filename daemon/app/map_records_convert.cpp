@@ -36,7 +36,7 @@ LoopDecision to_loop_decision(const LoopRecord& r) {
   d.match_utime = r.match_utime;
   d.status = r.status == static_cast<int>(LoopStatus::kAccepted)   ? LoopStatus::kAccepted
              : r.status == static_cast<int>(LoopStatus::kRejected) ? LoopStatus::kRejected
-                                                                    : LoopStatus::kCandidate;
+                                                                   : LoopStatus::kCandidate;
   d.stage = r.stage;
   d.reason = r.reason;
   d.gate_distance = r.gate_distance;

@@ -46,8 +46,7 @@ std::optional<std::string> restore_decisions(const KeyframeKey& query, const std
     }
     detector.restore_decision(d, d.information);
     if (!stored.present || r.event_id != stored.record.loop_event_id) continue;
-    if (auto why = detector.resume_correction(stored.record.revision, stored.record.keys, stored.record.T_map_sensor, stored.state))
-      return *why;
+    if (auto why = detector.resume_correction(stored.record.revision, stored.record.keys, stored.record.T_map_sensor, stored.state)) return *why;
     summary.revision = stored.record.revision;
   }
   return std::nullopt;

@@ -14,9 +14,9 @@ namespace loopd {
 class OdometryResetFilter {
  public:
   struct Config {
-    double max_speed = 60.0;        ///< [m/s] faster apparent motion is a reset (60 m/s = 216 km/h)
+    double max_speed = 60.0;           ///< [m/s] faster apparent motion is a reset (60 m/s = 216 km/h)
     double max_turn_rate_deg = 360.0;  ///< [deg/s] faster apparent rotation is a reset
-    double min_jump = 2.0;          ///< [m] smaller jumps are never resets (noise, a skipped pose)
+    double min_jump = 2.0;             ///< [m] smaller jumps are never resets (noise, a skipped pose)
   };
   OdometryResetFilter() = default;
   explicit OdometryResetFilter(const Config& config) : config_(config) {}

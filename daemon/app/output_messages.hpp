@@ -28,9 +28,9 @@ struct ChannelCounters {
 /// @brief status_t from the engine's and the channels' counters.
 /// @brief The map store's part of status_t.
 struct MapStatus {
-  std::string path;                  ///< "" without a map
-  std::int64_t bytes = 0;            ///< on disk
-  std::int64_t cached_bytes = 0;     ///< keyframe features in memory
+  std::string path;               ///< "" without a map
+  std::int64_t bytes = 0;         ///< on disk
+  std::int64_t cached_bytes = 0;  ///< keyframe features in memory
   std::int64_t write_failures = 0;
   std::string last_error;
 };

@@ -23,8 +23,8 @@ struct AssociationConfig {
 struct AssociatedScan {
   std::int64_t utime = 0;
   PointCloud cloud;
-  StampedPose pose;          ///< T_odom_sensor at utime (exact or interpolated)
-  double residual_sum = 0.0; ///< sum of pose residuals since the previous associated scan [m]
+  StampedPose pose;           ///< T_odom_sensor at utime (exact or interpolated)
+  double residual_sum = 0.0;  ///< sum of pose residuals since the previous associated scan [m]
 };
 
 /// @brief Pairs scans with poses by utime: an exact match, or slerp between the bracketing poses when both lie

@@ -23,7 +23,8 @@ class WireWalker {
   /// Skips `count` elements of `width` bytes (a fixed-size field or array).
   void skip(const char* field, std::size_t width, std::size_t count = 1) {
     if (!ok()) return;
-    if (count > remaining() / width) return fail(field, "needs " + std::to_string(width * count) + " bytes, " + std::to_string(remaining()) + " left");
+    if (count > remaining() / width)
+      return fail(field, "needs " + std::to_string(width * count) + " bytes, " + std::to_string(remaining()) + " left");
     pos_ += width * count;
   }
   std::int64_t int64(const char* field) { return static_cast<std::int64_t>(big_endian(field, 8)); }
@@ -37,8 +38,9 @@ class WireWalker {
     if (n < 0) return fail_at(at, field, "= " + std::to_string(n) + " is negative"), 0;
     if (n > max) return fail_at(at, field, "= " + std::to_string(n) + " exceeds the limit " + std::to_string(max)), 0;
     if (static_cast<std::size_t>(n) > remaining() / (width * static_cast<std::size_t>(arrays)))
-      return fail_at(at, field, "= " + std::to_string(n) + " needs " + std::to_string(static_cast<std::size_t>(n) * width * static_cast<std::size_t>(arrays)) + " bytes, " +
-                                    std::to_string(remaining()) + " left"),
+      return fail_at(at, field,
+                     "= " + std::to_string(n) + " needs " + std::to_string(static_cast<std::size_t>(n) * width * static_cast<std::size_t>(arrays)) +
+                         " bytes, " + std::to_string(remaining()) + " left"),
              0;
     return n;
   }
@@ -50,7 +52,8 @@ class WireWalker {
     const std::size_t at = pos_ - 4;
     if (n < 1) return fail_at(at, field, "string length " + std::to_string(n) + " (must be >= 1, counting its NUL)");
     if (n - 1 > max_bytes) return fail_at(at, field, "string of " + std::to_string(n - 1) + " bytes exceeds the limit " + std::to_string(max_bytes));
-    if (static_cast<std::size_t>(n) > remaining()) return fail_at(at, field, "string needs " + std::to_string(n) + " bytes, " + std::to_string(remaining()) + " left");
+    if (static_cast<std::size_t>(n) > remaining())
+      return fail_at(at, field, "string needs " + std::to_string(n) + " bytes, " + std::to_string(remaining()) + " left");
     const auto* s = bytes_ + pos_;
     if (s[n - 1] != 0) return fail_at(at, field, "string is not NUL-terminated");
     if (std::memchr(s, 0, static_cast<std::size_t>(n - 1)) != nullptr) return fail_at(at, field, "string contains a NUL byte");

@@ -15,16 +15,16 @@ namespace loopd {
 
 /// @brief Caps applied to a message's declared lengths before anything is allocated.
 struct DecodeLimits {
-  std::int64_t max_points = 2000000;    ///< point_cloud_t.num_points and num_ring_indices
-  std::int32_t max_string = 4096;       ///< bytes of one string (frame, stage, reason, channel, method, device)
-  std::int32_t max_channels = 1024;     ///< status_t.num_channels
+  std::int64_t max_points = 2000000;      ///< point_cloud_t.num_points and num_ring_indices
+  std::int32_t max_string = 4096;         ///< bytes of one string (frame, stage, reason, channel, method, device)
+  std::int32_t max_channels = 1024;       ///< status_t.num_channels
   std::int64_t max_keyframes = 10000000;  ///< trajectory_t.num_keyframes
 };
 
 /// @brief Outcome of a bounded decode: ok, or the reason and the byte offset where the message went wrong.
 struct DecodeResult {
   bool ok = false;
-  std::string reason;   ///< empty when ok, e.g. "num_points = -1 is negative"
+  std::string reason;      ///< empty when ok, e.g. "num_points = -1 is negative"
   std::size_t offset = 0;  ///< byte offset of the field that failed
   explicit operator bool() const { return ok; }
 };

@@ -35,9 +35,7 @@ bool LogWriter::write(const std::string& channel, std::int64_t timestamp, const 
   return true;
 }
 
-bool LogWriter::append_bytes(const void* data, std::size_t size) {
-  return log_ != nullptr && std::fwrite(data, 1, size, log_->f) == size;
-}
+bool LogWriter::append_bytes(const void* data, std::size_t size) { return log_ != nullptr && std::fwrite(data, 1, size, log_->f) == size; }
 
 void LogWriter::flush() {
   if (log_) std::fflush(log_->f);

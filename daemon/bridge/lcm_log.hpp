@@ -48,10 +48,10 @@ class LogWriter {
 
 /// @brief What a LogReader had to skip: damage is skipped and counted, never the end of the log.
 struct LogReadStats {
-  std::int64_t events = 0;           ///< events returned
-  std::int64_t corrupt_headers = 0;  ///< event headers with an impossible channel or data length (resynchronised)
-  std::int64_t skipped_bytes = 0;    ///< bytes skipped while looking for the next event's sync word
-  bool truncated_tail = false;       ///< the last event ends past the end of the file
+  std::int64_t events = 0;                 ///< events returned
+  std::int64_t corrupt_headers = 0;        ///< event headers with an impossible channel or data length (resynchronised)
+  std::int64_t skipped_bytes = 0;          ///< bytes skipped while looking for the next event's sync word
+  bool truncated_tail = false;             ///< the last event ends past the end of the file
   std::int64_t first_problem_offset = -1;  ///< byte offset of the first damage, -1 when none
 };
 

@@ -89,9 +89,9 @@ TEST_CASE("garbage, truncated, NaN, empty, duplicate and orphan input is counted
     w.write(channels::kScan, 3, buf.data(), buf.size() / 2);  // truncated scan
     PointCloud nan_cloud;
     nan_cloud.points.assign(10, Eigen::Vector3f(NAN, NAN, NAN));
-    w.write_message(channels::kScan, 4, to_message(nan_cloud, 900'000, 2, "lidar"));    // all-NaN scan
+    w.write_message(channels::kScan, 4, to_message(nan_cloud, 900'000, 2, "lidar"));     // all-NaN scan
     w.write_message(channels::kScan, 5, to_message(PointCloud(), 950'000, 3, "lidar"));  // empty scan
-    for (int k = 0; k < 5; ++k) {  // poses with no scans, then scans with no poses, duplicates
+    for (int k = 0; k < 5; ++k) {                                                        // poses with no scans, then scans with no poses, duplicates
       StampedPose p;
       p.utime = 2'000'000 + k * 100'000;
       p.T_world_sensor = make_isometry(k * 1.0, 0, 0, 0);
@@ -99,7 +99,7 @@ TEST_CASE("garbage, truncated, NaN, empty, duplicate and orphan input is counted
     }
     StampedPose dup;
     dup.utime = 2'100'000;
-    w.write_message(channels::kPose, 2'600'000, to_message(dup, 9));                      // duplicate pose utime
+    w.write_message(channels::kPose, 2'600'000, to_message(dup, 9));                        // duplicate pose utime
     w.write_message(channels::kScan, 2'200'000, to_message(cloud, 2'200'000, 4, "lidar"));  // ok
     w.write_message(channels::kScan, 2'200'001, to_message(cloud, 2'200'000, 5, "lidar"));  // duplicate scan utime
     w.write_message(channels::kScan, 9'000'000, to_message(cloud, 9'000'000, 6, "lidar"));  // no pose ever

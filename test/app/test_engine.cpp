@@ -24,10 +24,18 @@ PointCloud room_scan(std::uint32_t seed) {
   for (int i = 0; i < 6000; ++i) {
     const float a = u(rng), b = u(rng);
     switch (i % 4) {
-      case 0: c.points.emplace_back(10.f * a, 10.f * b, -1.8f); break;             // floor
-      case 1: c.points.emplace_back(10.f, 10.f * a, 2.f * b); break;               // wall
-      case 2: c.points.emplace_back(10.f * a, -10.f, 2.f * b); break;              // wall
-      default: c.points.emplace_back(3.f + a, 2.f + b, 0.5f * u(rng) - 1.f); break;  // box
+      case 0:
+        c.points.emplace_back(10.f * a, 10.f * b, -1.8f);
+        break;  // floor
+      case 1:
+        c.points.emplace_back(10.f, 10.f * a, 2.f * b);
+        break;  // wall
+      case 2:
+        c.points.emplace_back(10.f * a, -10.f, 2.f * b);
+        break;  // wall
+      default:
+        c.points.emplace_back(3.f + a, 2.f + b, 0.5f * u(rng) - 1.f);
+        break;  // box
     }
   }
   return c;
@@ -91,7 +99,7 @@ TEST_CASE("poses without scans and scans without poses are bounded and counted")
   config.association.max_pending_scans = 8;
   LoopdEngine engine(config, &sink);
   for (int i = 0; i < 500; ++i) engine.push_pose(pose_at(1'000'000 + i * 10'000, 0.01 * i), 0.0);  // no scans
-  for (int i = 0; i < 20; ++i) engine.push_scan(100'000'000 + i * 100'000, room_scan(1), 0.0);       // no poses
+  for (int i = 0; i < 20; ++i) engine.push_scan(100'000'000 + i * 100'000, room_scan(1), 0.0);     // no poses
   engine.finish();
   const EngineStats s = engine.stats();
   CHECK(s.poses_in == 500);

@@ -154,7 +154,7 @@ TEST_CASE("odometry reset: a jump back to identity continues the trajectory from
 TEST_CASE("sensor layout: a new lidar is one change; odd single scans and slow scene changes are none") {
   SensorLayoutWatch w;
   for (int i = 0; i < 50; ++i) CHECK_FALSE(w.on_scan(28000 + (i % 7) * 300, 16));
-  CHECK_FALSE(w.on_scan(9000, 16));  // one partial sweep
+  CHECK_FALSE(w.on_scan(9000, 16));                                          // one partial sweep
   for (int i = 0; i < 50; ++i) CHECK_FALSE(w.on_scan(28000 + i * 100, 16));  // the scene opens up slowly
   int confirmed_at = -1;
   for (int i = 0; i < 20; ++i)

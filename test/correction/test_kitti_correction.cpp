@@ -56,9 +56,9 @@ void run_sequence(const std::string& path, const char* name, double scale_bias, 
   for (const auto& [method, poses] : results) {
     const TrajectoryError e = trajectory_error(poses, k.gt);
     errs.push_back(e);
-    WARN(name << " scale bias " << scale_bias << " " << method << ": loops " << k.loops.size() << ", mean " << before.mean_closest << " -> " << e.mean_closest
-              << " (x" << before.mean_closest / e.mean_closest << "), median " << before.median_closest << " -> " << e.median_closest
-              << " (x" << before.median_closest / e.median_closest << "), ATE " << before.ate_rmse << " -> " << e.ate_rmse);
+    WARN(name << " scale bias " << scale_bias << " " << method << ": loops " << k.loops.size() << ", mean " << before.mean_closest << " -> "
+              << e.mean_closest << " (x" << before.mean_closest / e.mean_closest << "), median " << before.median_closest << " -> "
+              << e.median_closest << " (x" << before.median_closest / e.median_closest << "), ATE " << before.ate_rmse << " -> " << e.ate_rmse);
     CHECK(before.mean_closest / e.mean_closest >= 2.0);
     CHECK(before.median_closest / e.median_closest >= 2.0);
     double worst_t = 0, worst_r = 0;

@@ -43,8 +43,7 @@ TEST_CASE("heuristic: one loop closes exactly and halves the error of a drifted 
   HeuristicCorrectionConfig cfg;
   const auto corrected = correct_heuristic(s.odom.poses, s.odom.residuals, loop, cfg);
   const TrajectoryError after = trajectory_error(corrected, s.gt);
-  INFO("mean " << before.mean_closest << " -> " << after.mean_closest << ", median " << before.median_closest << " -> "
-               << after.median_closest);
+  INFO("mean " << before.mean_closest << " -> " << after.mean_closest << ", median " << before.median_closest << " -> " << after.median_closest);
   CHECK(before.mean_closest / after.mean_closest >= 2.0);
   CHECK(before.median_closest / after.median_closest >= 2.0);
   check_ends(corrected, loop);
@@ -57,8 +56,8 @@ TEST_CASE("heuristic: several laps, every loop end coincides, error drops >= 2x"
   REQUIRE(s.loops.size() >= 4);
   const auto corrected = correct_heuristic_all(s.odom.poses, s.odom.residuals, s.loops, {});
   const TrajectoryError before = trajectory_error(s.odom.poses, s.gt), after = trajectory_error(corrected, s.gt);
-  INFO("loops " << s.loops.size() << " mean " << before.mean_closest << " -> " << after.mean_closest << ", median "
-                << before.median_closest << " -> " << after.median_closest << ", ATE " << before.ate_rmse << " -> " << after.ate_rmse);
+  INFO("loops " << s.loops.size() << " mean " << before.mean_closest << " -> " << after.mean_closest << ", median " << before.median_closest << " -> "
+                << after.median_closest << ", ATE " << before.ate_rmse << " -> " << after.ate_rmse);
   CHECK(before.mean_closest / after.mean_closest >= 2.0);
   CHECK(before.median_closest / after.median_closest >= 2.0);
   for (const auto& l : s.loops) check_ends(corrected, l);

@@ -59,8 +59,8 @@ TEST_CASE("graph: synthetic laps, error drops >= 2x, loop ends coincide, at leas
     const auto poses = run(s, s.loops, m);
     const TrajectoryError e = trajectory_error(poses, s.gt);
     INFO(to_string(m) << ": mean " << before.mean_closest << " -> " << e.mean_closest << " (heuristic " << eh.mean_closest << "), median "
-                      << before.median_closest << " -> " << e.median_closest << ", ATE " << before.ate_rmse << " -> " << e.ate_rmse
-                      << " (heuristic " << eh.ate_rmse << ")");
+                      << before.median_closest << " -> " << e.median_closest << ", ATE " << before.ate_rmse << " -> " << e.ate_rmse << " (heuristic "
+                      << eh.ate_rmse << ")");
     CHECK(before.mean_closest / e.mean_closest >= 2.0);
     CHECK(before.median_closest / e.median_closest >= 2.0);
     CHECK(e.mean_closest <= eh.mean_closest * 1.001);
@@ -99,8 +99,8 @@ TEST_CASE("graph: a wrong loop (5 m off) beside true loops moves the result by l
   // Without a robust kernel the same loop does bend the map (so the test above measures the kernel).
   PoseGraphConfig plain;
   plain.loop_loss = RobustLoss::kNone;
-  const double moved_plain =
-      max_position_difference(run(s, s.loops, CorrectionMethod::kHeuristicThenGraph, plain), run(s, with_bad, CorrectionMethod::kHeuristicThenGraph, plain));
+  const double moved_plain = max_position_difference(run(s, s.loops, CorrectionMethod::kHeuristicThenGraph, plain),
+                                                     run(s, with_bad, CorrectionMethod::kHeuristicThenGraph, plain));
   INFO("no kernel: " << moved_plain << " m");
   CHECK(moved_plain > 1.0);
 }

@@ -93,8 +93,8 @@ TEST_CASE("loopd-correct: corrects a drifted synthetic drive and reports malform
   }
   for (const char* method : {"heuristic", "graph", "heuristic+graph"}) {
     const std::string cmd = tool + " --odometry " + (dir / "odom.txt").string() + " --loops " + (dir / "loops.txt").string() + " --out " +
-                            (dir / "out.txt").string() + " --residuals " + (dir / "res.txt").string() + " --method " + method +
-                            " --json > " + (dir / "stdout.txt").string() + " 2>&1";
+                            (dir / "out.txt").string() + " --residuals " + (dir / "res.txt").string() + " --method " + method + " --json > " +
+                            (dir / "stdout.txt").string() + " 2>&1";
     REQUIRE(std::system(cmd.c_str()) == 0);
     const TrajectoryFile out = read_trajectory((dir / "out.txt").string(), TrajectoryFormat::kKitti);
     REQUIRE(out.error.empty());

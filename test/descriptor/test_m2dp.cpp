@@ -133,8 +133,8 @@ TEST_CASE("M2DP is invariant to yaw and translation of the same scan, far below 
     REQUIRE(r.ok);
     worst_same = std::max(worst_same, descriptor_distance(base.descriptor, r.descriptor));
   }
-  std::cout << "[m2dp] invariance " << to_string(backend) << "/" << to_string(frame) << ": same scan rotated+translated max distance "
-            << worst_same << ", nearest other place " << nearest_other << "\n";
+  std::cout << "[m2dp] invariance " << to_string(backend) << "/" << to_string(frame) << ": same scan rotated+translated max distance " << worst_same
+            << ", nearest other place " << nearest_other << "\n";
   CHECK(worst_same < 0.01f);
   CHECK(nearest_other > 10.0f * worst_same);
   CHECK(nearest_other > 0.05f);

@@ -47,7 +47,9 @@ const DriveSample& sample() {
       double best_d = 3.0;
       for (int j = i + 100; j < static_cast<int>(drive.scans.size()); ++j) {
         const double d = (drive.scans[static_cast<std::size_t>(j)].T_world_sensor.translation() -
-                          drive.scans[static_cast<std::size_t>(i)].T_world_sensor.translation()).head<2>().norm();
+                          drive.scans[static_cast<std::size_t>(i)].T_world_sensor.translation())
+                             .head<2>()
+                             .norm();
         if (d < best_d) best_d = d, best = j;
       }
       if (best >= 0) chosen.push_back(best);

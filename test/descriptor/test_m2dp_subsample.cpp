@@ -42,8 +42,7 @@ void measure(const std::vector<std::vector<Eigen::Vector3f>>& clouds, const char
       d.push_back(descriptor_distance(r.descriptor, ref[i]));
     }
     std::sort(d.begin(), d.end());
-    std::printf("M2DP subsample %s: max_points %6d  median %.4f  max %.4f  (%zu clouds)\n", label, size, d[d.size() / 2], d.back(),
-                d.size());
+    std::printf("M2DP subsample %s: max_points %6d  median %.4f  max %.4f  (%zu clouds)\n", label, size, d[d.size() / 2], d.back(), d.size());
     max_err->push_back(d.back());
   }
 }

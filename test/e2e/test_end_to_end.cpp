@@ -33,7 +33,8 @@ TEST_CASE("loopd closes the loops of a simulated VLP-16 drive and corrects its t
   const std::string drive = (dir / "drive.lcmlog").string(), out = (dir / "out.lcmlog").string();
   int rc = 0;
   // The block route: 340 scans = one lap of about 244 m plus a second visit of its first 96 m (cars moved).
-  std::string log = loopd::test::run_command(kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 340 --seed 11 --route block --quiet", &rc);
+  std::string log = loopd::test::run_command(
+      kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 340 --seed 11 --route block --quiet", &rc);
   INFO(log);
   REQUIRE(rc == 0);
   log = loopd::test::run_command(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + drive + " --output " + out, &rc);

@@ -107,7 +107,8 @@ struct SharedDrive {
     drive = (dir / "drive.lcmlog").string();
     int rc = 0;
     const std::string log = loopd::test::run_command(
-        kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans " + std::to_string(kScans) + " --seed 11 --route block --quiet", &rc);
+        kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans " + std::to_string(kScans) + " --seed 11 --route block --quiet",
+        &rc);
     if (rc != 0) {
       error = "loopd-sim failed: " + log;
       return;
@@ -126,8 +127,9 @@ struct SharedDrive {
     if (hdl32.empty()) {
       const std::string path = (dir / "drive_hdl32.lcmlog").string();
       int rc = 0;
-      loopd::test::run_command(
-          kBin + "/tools/loopd-sim/loopd-sim --out " + path + " --sensor hdl32 --scans " + std::to_string(kScans) + " --seed 11 --route block --quiet", &rc);
+      loopd::test::run_command(kBin + "/tools/loopd-sim/loopd-sim --out " + path + " --sensor hdl32 --scans " + std::to_string(kScans) +
+                                   " --seed 11 --route block --quiet",
+                               &rc);
       if (rc == 0) hdl32 = path;
     }
     return hdl32;
@@ -161,13 +163,12 @@ void print_row(const std::string& fault, const std::string& what, const Outcome&
   const auto& s = o.status;
   std::cout << "fault-matrix | " << fault << " | " << what << " | rc " << o.exit_code << " | scans recv/acc/drop "
             << (s.num_channels > 0 ? s.channels[0].received : -1) << "/" << (s.num_channels > 0 ? s.channels[0].accepted : -1) << "/"
-            << (s.num_channels > 0 ? s.channels[0].dropped : -1) << " poses recv/acc " << (s.num_channels > 1 ? s.channels[1].received : -1)
-            << "/" << (s.num_channels > 1 ? s.channels[1].accepted : -1) << " | invalid " << s.invalid_scans << " lost~ "
-            << s.scans_lost_estimate << " jumps " << s.clock_jumps << " resets " << s.odometry_resets << " sensor " << s.sensor_changes
-            << " shed " << s.shed << " | keyframes " << s.keyframes << " (clean " << d.clean.status.keyframes << ") | loops "
-            << o.accepted.size() << " (clean " << d.clean.accepted.size() << "), eval " << o.eval_correct << "/" << o.eval_accepted
-            << " correct, precision " << o.closure_precision << " | memory " << s.memory_bytes / 1000000 << " MB (clean "
-            << d.clean.status.memory_bytes / 1000000 << ") | " << o.seconds << " s\n";
+            << (s.num_channels > 0 ? s.channels[0].dropped : -1) << " poses recv/acc " << (s.num_channels > 1 ? s.channels[1].received : -1) << "/"
+            << (s.num_channels > 1 ? s.channels[1].accepted : -1) << " | invalid " << s.invalid_scans << " lost~ " << s.scans_lost_estimate
+            << " jumps " << s.clock_jumps << " resets " << s.odometry_resets << " sensor " << s.sensor_changes << " shed " << s.shed
+            << " | keyframes " << s.keyframes << " (clean " << d.clean.status.keyframes << ") | loops " << o.accepted.size() << " (clean "
+            << d.clean.accepted.size() << "), eval " << o.eval_correct << "/" << o.eval_accepted << " correct, precision " << o.closure_precision
+            << " | memory " << s.memory_bytes / 1000000 << " MB (clean " << d.clean.status.memory_bytes / 1000000 << ") | " << o.seconds << " s\n";
 }
 
 /// What every fault must keep: the daemon stays up and exits 0, publishes status, accepts no wrong loop, and its
@@ -235,9 +236,9 @@ TEST_CASE("fault matrix, replay: every input fault is counted, no wrong loop is 
 
   for (const double fraction : {0.1, 0.5}) {
     DYNAMIC_SECTION("scans dropped: " << fraction * 100 << " %") {
-    const FaultFiles files(d, "drop" + std::to_string(static_cast<int>(fraction * 100)));
-    const std::string& faulty = files.drive;
-    const std::string& out = files.out;
+      const FaultFiles files(d, "drop" + std::to_string(static_cast<int>(fraction * 100)));
+      const std::string& faulty = files.drive;
+      const std::string& out = files.out;
       const FaultResult f = loopd::test::drop_messages(d.drive, faulty, channels::kScan, fraction, 11);
       INFO(f.error);
       REQUIRE(f.ok);
@@ -446,8 +447,9 @@ TEST_CASE("fault matrix, replay: every input fault is counted, no wrong loop is 
 
 TEST_CASE("fault matrix, live: a 5x scan flood and a lossy drive beside lcm-logplayer") {
   if (loopd::test::run_quiet("ip route get 239.255.76.67 | grep -q 'dev lo'") != 0) {
-    WARN("skipped: multicast 239.255.76.0/24 is not routed through loopback (as root: ip link set lo multicast on; "
-         "ip route add 239.255.76.0/24 dev lo)");
+    WARN(
+        "skipped: multicast 239.255.76.0/24 is not routed through loopback (as root: ip link set lo multicast on; "
+        "ip route add 239.255.76.0/24 dev lo)");
     return;
   }
   SharedDrive& d = shared_drive();

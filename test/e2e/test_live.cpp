@@ -54,21 +54,25 @@ Published read_published(const std::string& path) {
 
 TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops nothing and survives crafted scans") {
   if (loopd::test::run_quiet("ip route get 239.255.76.67 | grep -q 'dev lo'") != 0) {
-    WARN("skipped: multicast 239.255.76.0/24 is not routed through loopback (as root: ip link set lo multicast on; "
-         "ip route add 239.255.76.0/24 dev lo)");
+    WARN(
+        "skipped: multicast 239.255.76.0/24 is not routed through loopback (as root: ip link set lo multicast on; "
+        "ip route add 239.255.76.0/24 dev lo)");
     return;
   }
   const fs::path dir = fs::temp_directory_path() / ("loopd_live_" + std::to_string(getpid()));
   fs::create_directories(dir);
   const std::string drive = (dir / "drive.lcmlog").string();
-  REQUIRE(loopd::test::run_quiet(kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 340 --seed 11 --route block --quiet") == 0);
-  REQUIRE(loopd::test::run_quiet(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + drive + " --output " + (dir / "replay.lcmlog").string()) == 0);
+  REQUIRE(loopd::test::run_quiet(kBin + "/tools/loopd-sim/loopd-sim --out " + drive +
+                                 " --sensor vlp16 --scans 340 --seed 11 --route block --quiet") == 0);
+  REQUIRE(loopd::test::run_quiet(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + drive + " --output " + (dir / "replay.lcmlog").string()) ==
+          0);
   const Published replay = read_published((dir / "replay.lcmlog").string());
 
   const std::string port = std::to_string(7700 + getpid() % 200);
   const std::string url = "udpm://239.255.76.67:" + port + "?ttl=0&recv_buf_size=8388608";
   const pid_t loopd = spawn({kBin + "/daemon/loopd", "--sensor", "vlp16", "--quiet", "--lcm-url", url});
-  const pid_t logger = spawn({"lcm-logger", "--lcm-url=" + url, "-c", "LOOP_EVENT|CORRECTED_TRAJECTORY|LOOPD_STATUS", "-f", (dir / "live.lcmlog").string()});
+  const pid_t logger =
+      spawn({"lcm-logger", "--lcm-url=" + url, "-c", "LOOP_EVENT|CORRECTED_TRAJECTORY|LOOPD_STATUS", "-f", (dir / "live.lcmlog").string()});
   std::this_thread::sleep_for(std::chrono::seconds(2));
   // The drive as played carries the crafted scans that used to stop loopd (bounded decoding must count them).
   const std::string played = (dir / "played.lcmlog").string();

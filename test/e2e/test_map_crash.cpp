@@ -67,7 +67,8 @@ std::string run_loopd(const std::string& drive, const std::string& map, const st
   int status = 0;
   if (kill_after_s > 0) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(kill_after_s);
-    while (std::chrono::steady_clock::now() < deadline && waitpid(pid, &status, WNOHANG) == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    while (std::chrono::steady_clock::now() < deadline && waitpid(pid, &status, WNOHANG) == 0)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
     kill(pid, SIGKILL);
   }
   waitpid(pid, &status, 0);
@@ -85,7 +86,8 @@ TEST_CASE("a replay on a map, killed with SIGKILL again and again, loses nothing
   fs::create_directories(dir);
   const std::string drive = (dir / "drive.lcmlog").string();
   int rc = 0;
-  const std::string sim = test::run_command(kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 340 --seed 23 --route block --quiet", &rc);
+  const std::string sim =
+      test::run_command(kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 340 --seed 23 --route block --quiet", &rc);
   INFO(sim);
   REQUIRE(rc == 0);
 

@@ -168,7 +168,7 @@ TEST_CASE("injected odometry drift is deterministic and grows with distance") {
   const double e100 = (a.poses[100].translation() - gt[100].translation()).norm();
   const double e499 = (a.poses[499].translation() - gt[499].translation()).norm();
   CHECK(e499 > e100);
-  CHECK(e499 > 2.0);   // 0.005 deg/m heading bias over 500 m: about 11 m lateral, plus 1% scale: 5 m
+  CHECK(e499 > 2.0);  // 0.005 deg/m heading bias over 500 m: about 11 m lateral, plus 1% scale: 5 m
   CHECK(e499 < 30.0);
   CHECK(a.residuals[1] > cfg.residual_base);
 }

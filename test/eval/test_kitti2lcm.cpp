@@ -109,8 +109,7 @@ TEST_CASE("KITTI readers: poses, times, calib and camera-to-lidar conversion") {
   const KittiTimes times = read_kitti_times((d / "sequences/07/times.txt").string());
   REQUIRE(times.ok);
   CHECK(times.seconds.size() == 3);
-  const TrajectoryFile lidar_poses =
-      read_kitti_lidar_poses((d / "poses/07.txt").string(), (d / "sequences/07/calib.txt").string());
+  const TrajectoryFile lidar_poses = read_kitti_lidar_poses((d / "poses/07.txt").string(), (d / "sequences/07/calib.txt").string());
   REQUIRE(lidar_poses.ok);
   REQUIRE(lidar_poses.poses.size() == 3);
   CHECK(lidar_poses.poses[1].isApprox(lidar[1], 1e-12));
@@ -256,8 +255,8 @@ TEST_CASE("kitti2lcm on the real KITTI 00 scans (skips without ../shared/data)")
   const fs::path d = temp_dir("kitti2lcm_real");
   const std::string out = (d / "00.lcmlog").string();
   const std::string seq = fs::path(scan0).parent_path().string();
-  REQUIRE(run(bin + " --quiet --sequence " + seq + " --poses " + poses + " --times " + times + " --calib " + calib +
-              " --max-frames 6 --out " + out) == 0);
+  REQUIRE(run(bin + " --quiet --sequence " + seq + " --poses " + poses + " --times " + times + " --calib " + calib + " --max-frames 6 --out " +
+              out) == 0);
   const DecodedDrive dr = decode_drive(out);
   REQUIRE(dr.scans.size() == 6);
   for (const auto& s : dr.scans) {

@@ -37,8 +37,8 @@ struct TwoRuns {
     fs::create_directories(dir);
     const std::string drive = (dir / "drive.lcmlog").string();
     int rc = 0;
-    std::string log = test::run_command(
-        kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 340 --seed 11 --route block --quiet", &rc);
+    std::string log =
+        test::run_command(kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 340 --seed 11 --route block --quiet", &rc);
     INFO(log);
     REQUIRE(rc == 0);
     for (const std::string& out : {out1, out2}) {

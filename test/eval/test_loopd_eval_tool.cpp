@@ -53,10 +53,10 @@ struct HandLoop {
 //  290->150 rejected, false                           -> only in the PR curve
 //  295->5 gate rejection, no descriptor               -> nowhere
 const HandLoop kLoops[] = {
-    {250, 49, LoopStatus::kAccepted, 0.10, 0.0, "accepted"},  {260, 39, LoopStatus::kAccepted, 0.20, 2.0, "accepted"},
+    {250, 49, LoopStatus::kAccepted, 0.10, 0.0, "accepted"},   {260, 39, LoopStatus::kAccepted, 0.20, 2.0, "accepted"},
     {280, 100, LoopStatus::kAccepted, 0.30, -1.0, "accepted"}, {120, 10, LoopStatus::kAccepted, 0.25, 0.0, "accepted"},
-    {270, 29, LoopStatus::kRejected, 0.15, 0.0, "gicp"},
-    {290, 150, LoopStatus::kRejected, 0.50, 0.0, "fourpcs"},  {295, 5, LoopStatus::kRejected, -1.0, 0.0, "gate"},
+    {270, 29, LoopStatus::kRejected, 0.15, 0.0, "gicp"},       {290, 150, LoopStatus::kRejected, 0.50, 0.0, "fourpcs"},
+    {295, 5, LoopStatus::kRejected, -1.0, 0.0, "gate"},
 };
 
 EvalInput build_input() {
@@ -113,8 +113,8 @@ TEST_CASE("metrics library: hand-built loops give the hand-counted detection and
   REQUIRE(rep.ok);
   CHECK(rep.keyframe_utimes.size() == 300);
   CHECK(rep.detection.gt_queries == 100);
-  check_hand_counts(rep.detection.precision, rep.detection.recall, rep.detection.true_positives,
-                    rep.detection.false_positives, rep.detection.false_negatives);
+  check_hand_counts(rep.detection.precision, rep.detection.recall, rep.detection.true_positives, rep.detection.false_positives,
+                    rep.detection.false_negatives);
   // PR curve over the 6 pairs with a descriptor distance: 0.10 T, 0.15 T, 0.20 T, 0.25 F, 0.30 F, 0.50 F.
   REQUIRE(rep.detection.pr_curve.size() == 6);
   CHECK(rep.detection.pr_curve[2].recall == Approx(0.03));
@@ -128,7 +128,7 @@ TEST_CASE("metrics library: hand-built loops give the hand-counted detection and
   CHECK(rep.closure.accepted == 4);
   CHECK(rep.closure.correct == 2);
   CHECK(rep.closure.precision == Approx(0.5));
-  CHECK(rep.closure.recall == Approx(0.03));          // queries 250, 260, 280 are all revisits
+  CHECK(rep.closure.recall == Approx(0.03));  // queries 250, 260, 280 are all revisits
   CHECK(rep.closure.recall_correct == Approx(0.01));
   CHECK(rep.closure.stretches == 1);
   CHECK(rep.closure.stretches_closed == 1);
@@ -232,9 +232,8 @@ TEST_CASE("loopd-eval binary: same figures from LCM logs, JSON as the last line,
     return;
   }
   const std::string out = (dir / "stdout.txt").string();
-  const std::string cmd = bin + " --drive " + drive + " --results " + results + " --json --quiet --plots " +
-                          (dir / "plots").string() + " --export-tum " + (dir / "tum").string() + " > " + out +
-                          " 2> " + (dir / "stderr.txt").string();
+  const std::string cmd = bin + " --drive " + drive + " --results " + results + " --json --quiet --plots " + (dir / "plots").string() +
+                          " --export-tum " + (dir / "tum").string() + " > " + out + " 2> " + (dir / "stderr.txt").string();
   REQUIRE(std::system(cmd.c_str()) == 0);
   std::ifstream f(out);
   std::string line, last;
@@ -260,8 +259,7 @@ TEST_CASE("loopd-eval binary: same figures from LCM logs, JSON as the last line,
   }
 
   // --min-frame-gap 250 keeps only return frames x < 24.5: 25 queries, none detected (x = 49, 39 are out).
-  const std::string cmd2 = bin + " --drive " + drive + " --results " + results + " --json --quiet --min-frame-gap 250 > " +
-                           out + " 2>/dev/null";
+  const std::string cmd2 = bin + " --drive " + drive + " --results " + results + " --json --quiet --min-frame-gap 250 > " + out + " 2>/dev/null";
   REQUIRE(std::system(cmd2.c_str()) == 0);
   std::ifstream f2(out);
   while (std::getline(f2, line))

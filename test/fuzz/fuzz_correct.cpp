@@ -47,7 +47,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   config.graph.max_iterations = 10;
   LoopCorrector corrector(config);
   const bool use_residuals = static_cast<int>(residuals.residuals.size()) == n;
-  for (int i = 0; i < n; ++i) corrector.add_keyframe(odometry.poses[static_cast<std::size_t>(i)], use_residuals ? residuals.residuals[static_cast<std::size_t>(i)] : 0.0);
+  for (int i = 0; i < n; ++i)
+    corrector.add_keyframe(odometry.poses[static_cast<std::size_t>(i)], use_residuals ? residuals.residuals[static_cast<std::size_t>(i)] : 0.0);
   corrector.add_loops(loops.loops);
   fuzz::check(corrector.corrected_poses().size() == static_cast<std::size_t>(n), "one corrected pose per odometry pose");
   return 0;

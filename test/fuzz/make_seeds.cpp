@@ -71,8 +71,9 @@ void clouds() {
   write_kitti_bin(bin, c);
   put("cloud_bin", "empty.bin", "");
 
-  const std::string head = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\n"
-                           "COUNT 1 1 1 1\nWIDTH 6\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 6\n";
+  const std::string head =
+      "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\n"
+      "COUNT 1 1 1 1\nWIDTH 6\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 6\n";
   std::string ascii = head + "DATA ascii\n", binary = head + "DATA binary\n", soa;
   for (std::size_t i = 0; i < c.size(); ++i) {
     ascii += std::to_string(c.points[i].x()) + " " + std::to_string(c.points[i].y()) + " " + std::to_string(c.points[i].z()) + " " +
@@ -87,15 +88,17 @@ void clouds() {
   put("cloud_pcd", "binary_compressed.pcd",
       head + "DATA binary_compressed\n" + raw(static_cast<std::uint32_t>(lzf.size())) + raw(static_cast<std::uint32_t>(soa.size())) + lzf);
   // Mixed types and counts, and a field before x.
-  std::string mixed = "VERSION .7\nFIELDS ring x y z normal\nSIZE 2 8 8 8 4\nTYPE U F F F F\nCOUNT 1 1 1 1 3\nWIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA binary\n";
+  std::string mixed =
+      "VERSION .7\nFIELDS ring x y z normal\nSIZE 2 8 8 8 4\nTYPE U F F F F\nCOUNT 1 1 1 1 3\nWIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA binary\n";
   for (int i = 0; i < 2; ++i) {
     mixed += raw(static_cast<std::uint16_t>(i)) + raw(1.0 * i) + raw(2.0) + raw(-3.0);
     for (int k = 0; k < 3; ++k) mixed += raw(0.5f);
   }
   put("cloud_pcd", "mixed_types.pcd", mixed);
 
-  const std::string ply_props = "element vertex 6\nproperty float x\nproperty float y\nproperty float z\nproperty float intensity\n"
-                                "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::string ply_props =
+      "element vertex 6\nproperty float x\nproperty float y\nproperty float z\nproperty float intensity\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
   std::string ply_ascii = "ply\nformat ascii 1.0\ncomment loopd seed\n" + ply_props, le = "ply\nformat binary_little_endian 1.0\n" + ply_props,
               be = "ply\nformat binary_big_endian 1.0\n" + ply_props;
   for (std::size_t i = 0; i < c.size(); ++i) {
@@ -115,7 +118,8 @@ void clouds() {
   put("cloud_ply", "binary_be.ply", be);
   put("cloud_ply", "list_before_vertex.ply",
       "ply\nformat binary_little_endian 1.0\nelement extra 2\nproperty list uchar double v\nelement vertex 1\nproperty double x\n"
-      "property double y\nproperty double z\nend_header\n" + std::string(1, '\1') + raw(1.0) + std::string(1, '\0') + raw(1.0) + raw(2.0) + raw(3.0));
+      "property double y\nproperty double z\nend_header\n" +
+          std::string(1, '\1') + raw(1.0) + std::string(1, '\0') + raw(1.0) + raw(2.0) + raw(3.0));
 }
 
 std::vector<Eigen::Isometry3d> small_trajectory(int n) {

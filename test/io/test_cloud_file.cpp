@@ -66,13 +66,13 @@ PointCloud read_ok(const std::string& path) {
   return f.cloud;
 }
 
-const std::string kPcdHead = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 3\nHEIGHT 1\n"
-                             "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 3\n";
+const std::string kPcdHead =
+    "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 3\nHEIGHT 1\n"
+    "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 3\n";
 
 }  // namespace
 
-TEST_CASE("cloud files: .bin, .pcd (ascii, binary, binary_compressed, mixed types) and .ply (ascii, both byte orders) read exactly",
-          "[io]") {
+TEST_CASE("cloud files: .bin, .pcd (ascii, binary, binary_compressed, mixed types) and .ply (ascii, both byte orders) read exactly", "[io]") {
   TempDir tmp;
   PointCloud c;
 
@@ -102,14 +102,16 @@ TEST_CASE("cloud files: .bin, .pcd (ascii, binary, binary_compressed, mixed type
   // 48 bytes: x of 4 points = 1,1,1,1 (16 bytes), y = 1,1,1,1, z = 1,1,1,1: 4 literal bytes then a 44-byte reference
   // at distance 4 (ctrl: len 7 -> 7 + extra; 44 - 2 = 42 = 7 + 35).
   const std::string one = raw(1.0f);
-  const std::string backref = std::string(1, '\x03') + one + std::string(1, static_cast<char>(7 << 5)) + std::string(1, '\x23') + std::string(1, '\x03');
+  const std::string backref =
+      std::string(1, '\x03') + one + std::string(1, static_cast<char>(7 << 5)) + std::string(1, '\x23') + std::string(1, '\x03');
   c = read_ok(tmp.write("ref.pcd", xyz_head + raw(std::uint32_t(backref.size())) + raw(std::uint32_t(48)) + backref));
   REQUIRE(c.size() == 4);
   CHECK_FALSE(c.has_intensity());
   for (const auto& p : c.points) CHECK(p == Eigen::Vector3f(1.f, 1.f, 1.f));
 
   // Mixed types: a uint16 field before x, doubles, a 3-count field after.
-  std::string mixed = "VERSION .7\nFIELDS ring x y z normal\nSIZE 2 8 8 8 4\nTYPE U F F F F\nCOUNT 1 1 1 1 3\nWIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA binary\n";
+  std::string mixed =
+      "VERSION .7\nFIELDS ring x y z normal\nSIZE 2 8 8 8 4\nTYPE U F F F F\nCOUNT 1 1 1 1 3\nWIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA binary\n";
   for (const auto& p : kPts) {
     mixed += raw(std::uint16_t(5)) + raw(double(p[0])) + raw(double(p[1])) + raw(double(p[2]));
     for (int k = 0; k < 3; ++k) mixed += raw(0.5f);
@@ -117,8 +119,9 @@ TEST_CASE("cloud files: .bin, .pcd (ascii, binary, binary_compressed, mixed type
   c = read_ok(tmp.write("mixed.pcd", mixed));
   require_three_points(c, false);
 
-  const std::string props = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float intensity\n"
-                            "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::string props =
+      "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float intensity\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
   std::string ply_ascii = "ply\nformat ascii 1.0\ncomment made by a test\n" + props;
   std::string le = "ply\nformat binary_little_endian 1.0\n" + props, be = "ply\nformat binary_big_endian 1.0\n" + props;
   for (const auto& p : kPts) {
@@ -135,8 +138,9 @@ TEST_CASE("cloud files: .bin, .pcd (ascii, binary, binary_compressed, mixed type
   c = read_ok(tmp.write("be.ply", be + "\x03" + reversed(raw(0)) + reversed(raw(1)) + reversed(raw(2))));
   require_three_points(c);
   // An element with a list before the vertices is walked over.
-  std::string before = "ply\nformat binary_little_endian 1.0\nelement extra 2\nproperty list uchar double v\nelement vertex 3\n"
-                       "property float x\nproperty float y\nproperty float z\nproperty float intensity\nend_header\n";
+  std::string before =
+      "ply\nformat binary_little_endian 1.0\nelement extra 2\nproperty list uchar double v\nelement vertex 3\n"
+      "property float x\nproperty float y\nproperty float z\nproperty float intensity\nend_header\n";
   before += std::string(1, '\x02') + raw(1.0) + raw(2.0) + std::string(1, '\x00');
   for (const auto& p : kPts)
     for (float v : p) before += raw(v);
@@ -187,23 +191,29 @@ TEST_CASE("cloud files: damaged and hostile files fail with the file and the pos
   CHECK(read_error(tmp.write("nodata.pcd", "VERSION 0.7\nFIELDS x y z\n")).find(":2: no DATA line") != std::string::npos);
   CHECK(read_error(tmp.write("type.pcd", "FIELDS x y z\nSIZE 4 4 3\nTYPE F F F\nPOINTS 1\nDATA ascii\n1 2 3\n")).find(":5: field 'z': SIZE 3") !=
         std::string::npos);
-  CHECK(read_error(tmp.write("few.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 2\nDATA ascii\n1 2 3\n4 5\n")).find(":7: expected 3 values, got 2") !=
-        std::string::npos);
-  CHECK(read_error(tmp.write("word.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 1\nDATA ascii\n1 zz 3\n")).find(":6: field 'y': 'zz' is not a number") !=
-        std::string::npos);
+  CHECK(read_error(tmp.write("few.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 2\nDATA ascii\n1 2 3\n4 5\n"))
+            .find(":7: expected 3 values, got 2") != std::string::npos);
+  CHECK(read_error(tmp.write("word.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 1\nDATA ascii\n1 zz 3\n"))
+            .find(":6: field 'y': 'zz' is not a number") != std::string::npos);
   CHECK(read_error(tmp.write("noz.pcd", "FIELDS x y\nSIZE 4 4\nTYPE F F\nPOINTS 0\nDATA ascii\n")).find("no 'z' field") != std::string::npos);
-  CHECK(read_error(tmp.write("junk.pcd", std::string("\x7f" "ELF\x02\x01\x01\0\0\0", 10))).find(":1: binary bytes in the header") != std::string::npos);
+  CHECK(read_error(tmp.write("junk.pcd", std::string("\x7f"
+                                                     "ELF\x02\x01\x01\0\0\0",
+                                                     10)))
+            .find(":1: binary bytes in the header") != std::string::npos);
 
   // PLY: a vertex count the bytes cannot hold, a bad token, a truncated header, a list length past the end.
-  const std::string ply = "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  const std::string ply =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
   e = read_error(tmp.write("huge.ply", ply + std::string(24, '\0')));
   CHECK(e.find("byte offset " + std::to_string(ply.size()) + ": element 'vertex' declares 1000000000 vertices of 12 bytes") != std::string::npos);
-  e = read_error(tmp.write("bad.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n4 five 6\n"));
+  e = read_error(tmp.write(
+      "bad.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n4 five 6\n"));
   CHECK(e.find(":9: property 'y': 'five' is not a number") != std::string::npos);
   CHECK(read_error(tmp.write("cut.ply", "ply\nformat ascii 1.0\nelement vertex 2\n")).find("no end_header") != std::string::npos);
   CHECK(read_error(tmp.write("notply.ply", "plyx\n")).find(":1: the file does not start with 'ply'") != std::string::npos);
-  const std::string list = "ply\nformat binary_little_endian 1.0\nelement face 1\nproperty list int int idx\nelement vertex 0\nproperty float x\n"
-                           "property float y\nproperty float z\nend_header\n";
+  const std::string list =
+      "ply\nformat binary_little_endian 1.0\nelement face 1\nproperty list int int idx\nelement vertex 0\nproperty float x\n"
+      "property float y\nproperty float z\nend_header\n";
   e = read_error(tmp.write("list.ply", list + raw(std::int32_t(2000000000)) + raw(1)));
   CHECK(e.find("byte offset " + std::to_string(list.size() + 4) + ": the file ends in element 'face' 0 of 1 (property 'idx')") != std::string::npos);
   e = read_error(tmp.write("neg.ply", list + raw(std::int32_t(-1))));

@@ -87,7 +87,8 @@ TEST_CASE("after a correction the gate searches the corrected positions") {
   g.add({KeyframeKey{0, 1}, Eigen::Vector3d(50, 0, 0), 50.0});
   const GateEntry q{KeyframeKey{0, 100}, Eigen::Vector3d(0, 30, 0), 500.0};
   CHECK(g.candidates(q, 10.0).empty());
-  g.update_positions([](const KeyframeKey& k) { return k.index == 0 ? Eigen::Vector3d(0, 25, 0) : Eigen::Vector3d(50, 0, 0); });  // keyframe 0 was really 5 m away
+  g.update_positions(
+      [](const KeyframeKey& k) { return k.index == 0 ? Eigen::Vector3d(0, 25, 0) : Eigen::Vector3d(50, 0, 0); });  // keyframe 0 was really 5 m away
   const auto c = g.candidates(q, 10.0);
   REQUIRE(c.size() == 1);
   CHECK(c[0].key.index == 0);

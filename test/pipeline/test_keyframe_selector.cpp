@@ -35,7 +35,7 @@ TEST_CASE("turning on the spot makes a keyframe at min_rotation_deg") {
   CHECK_FALSE(s.accept(pose(0.0, 14.0), kSecond / 10));
   CHECK(s.accept(pose(0.0, 15.5), 2 * kSecond / 10));
   CHECK_FALSE(s.accept(pose(0.0, 1.0), 3 * kSecond / 10));  // 14.5 deg back
-  CHECK(s.accept(pose(0.0, -0.5), 4 * kSecond / 10));        // 16 deg back
+  CHECK(s.accept(pose(0.0, -0.5), 4 * kSecond / 10));       // 16 deg back
 }
 
 TEST_CASE("standing still makes a keyframe every max_interval; 0 disables the time rule") {

@@ -137,7 +137,8 @@ TEST_CASE("the result is identical with 1 and 2 threads and on repeated runs") {
 TEST_CASE("degenerate input returns no alignment with a reason") {
   const FourPcsConfig cfg;
   const LidarModel model = lidar_model_hdl64();
-  const PreparedScan good = prepare_scan(simulate_scan(town(), model, street_pose(town(), 1, 1, 1, 25.0), 7, 1, 0), &model, registration_prepare_config());
+  const PreparedScan good =
+      prepare_scan(simulate_scan(town(), model, street_pose(town(), 1, 1, 1, 25.0), 7, 1, 0), &model, registration_prepare_config());
   REQUIRE(good.segmentation.num_planar() > 0);
 
   SECTION("fewer than 4 points") {

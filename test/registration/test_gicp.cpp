@@ -49,8 +49,8 @@ TEST_CASE("GICP converges from 5 deg / 0.5 m initial error to < 0.05 m on clean 
   const auto source = loopd::test::street_scene(1);
   const auto target = loopd::test::transformed(loopd::test::street_scene(2), kTrue);
   GicpConfig cfg;
-  const std::vector<Eigen::Isometry3d> inits = {
-      perturbed(0.5, 0, 0, 5), perturbed(0, -0.5, 0, -5), perturbed(0.35, 0.35, 0, 5, 1, -1), perturbed(-0.3, 0.3, 0.2, -5, -2, 2)};
+  const std::vector<Eigen::Isometry3d> inits = {perturbed(0.5, 0, 0, 5), perturbed(0, -0.5, 0, -5), perturbed(0.35, 0.35, 0, 5, 1, -1),
+                                                perturbed(-0.3, 0.3, 0.2, -5, -2, 2)};
   for (const auto& init : inits) {
     const GicpResult r = align_gicp(source, target, init, cfg);
     INFO("reason: " << r.reason << " fitness " << r.fitness << " residual " << r.residual << " it " << r.iterations);
@@ -189,8 +189,8 @@ TEST_CASE("GICP aligns consecutive real KITTI scans to the ground truth (seq 00)
     const Eigen::Isometry3d truth = Ta.inverse() * Tb;  // maps frame-b points into frame a
     // Odometry-like start: identity (the car moved ~1 m).
     const GicpResult r = align_gicp(b.points, a.points, Eigen::Isometry3d::Identity(), GicpConfig{});
-    INFO("frames " << pair.first << "->" << pair.second << " reason " << r.reason << " t " << r.T_target_source.translation().transpose()
-                   << " truth " << truth.translation().transpose() << " fitness " << r.fitness << " residual " << r.residual);
+    INFO("frames " << pair.first << "->" << pair.second << " reason " << r.reason << " t " << r.T_target_source.translation().transpose() << " truth "
+                   << truth.translation().transpose() << " fitness " << r.fitness << " residual " << r.residual);
     CHECK(r.converged);
     CHECK(translation_error(r.T_target_source, truth) < 0.1);
     CHECK(rotation_error_deg(r.T_target_source, truth) < 0.3);

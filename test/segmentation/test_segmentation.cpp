@@ -68,7 +68,8 @@ TEST_CASE("segment finds the ground and vertical facades in an HDL-64E town scan
     CHECK(cl.hull.size() >= 3);
     CHECK(static_cast<int>(cl.hull.size()) <= cfg.max_hull_points);
     // Hull vertices are member points: on the plane within a few plane-fit tolerances.
-    INFO("cluster n=" << cl.num_points << " normal " << cl.plane.head<3>().transpose() << " centroid " << cl.centroid.transpose() << " extent " << cl.extent_major);
+    INFO("cluster n=" << cl.num_points << " normal " << cl.plane.head<3>().transpose() << " centroid " << cl.centroid.transpose() << " extent "
+                      << cl.extent_major);
     for (const auto& h : cl.hull) CHECK(std::abs(cl.plane.head<3>().dot(h) + cl.plane.w()) < 3 * cfg.plane_rms_tolerance + 1e-3);
   }
   // Memory: the segmentation stays a small part of a keyframe's ~120 KB budget.

@@ -170,8 +170,9 @@ TEST_CASE("a revisit of the drive overlaps its earlier visit after ground-truth 
     if (d.scans[static_cast<std::size_t>(i)].visit != 1) continue;
     for (int j = 0; j + 100 <= i; ++j) {
       if (d.scans[static_cast<std::size_t>(j)].visit != 0) continue;
-      const double dist = (d.scans[static_cast<std::size_t>(i)].T_world_sensor.translation() -
-                           d.scans[static_cast<std::size_t>(j)].T_world_sensor.translation()).norm();
+      const double dist =
+          (d.scans[static_cast<std::size_t>(i)].T_world_sensor.translation() - d.scans[static_cast<std::size_t>(j)].T_world_sensor.translation())
+              .norm();
       // A place in the middle of a revisited stretch, not a crossing.
       if (dist < 0.5 && dist < best && i > 600) best = dist, qi = i, mi = j;
     }

@@ -14,8 +14,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 /// Share of `query` points (world frame) that have a `target` point within `radius` [m].
-double overlap(const loopd::PointCloud& query, const Eigen::Isometry3d& T_wq, const loopd::PointCloud& target,
-               const Eigen::Isometry3d& T_wt, double radius) {
+double overlap(const loopd::PointCloud& query, const Eigen::Isometry3d& T_wq, const loopd::PointCloud& target, const Eigen::Isometry3d& T_wt,
+               double radius) {
   const loopd::PointCloud tw = loopd::transform(target, T_wt);
   const loopd::PointCloud qw = loopd::transform(query, T_wq);
   loopd::KdTree3f tree(tw.points);

@@ -10,9 +10,9 @@ std::string data_file(const std::string& relative);
 }  // namespace loopd::test
 
 /// Skips the current Catch2 test case cleanly (Catch2 v2 has no SKIP) when a data file is absent.
-#define LOOPD_REQUIRE_DATA(var, relative)                                              \
-  const std::string var = loopd::test::data_file(relative);                             \
-  if (var.empty()) {                                                                    \
+#define LOOPD_REQUIRE_DATA(var, relative)                                                  \
+  const std::string var = loopd::test::data_file(relative);                                \
+  if (var.empty()) {                                                                       \
     WARN("skipped: real data file '" << (relative) << "' not found (set LOOPD_DATA_DIR)"); \
-    return;                                                                             \
+    return;                                                                                \
   }

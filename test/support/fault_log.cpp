@@ -95,8 +95,7 @@ FaultResult drop_messages(const std::string& in, const std::string& out, const s
   });
 }
 
-FaultResult remove_window(const std::string& in, const std::string& out, const std::string& channel, std::int64_t from_utime,
-                          std::int64_t to_utime) {
+FaultResult remove_window(const std::string& in, const std::string& out, const std::string& channel, std::int64_t from_utime, std::int64_t to_utime) {
   return copy_through(in, out, [&](LogEvent& ev, const Emit& emit, FaultResult* r) {
     std::int64_t u = 0;
     if (ev.channel == channel && read_utime(ev, &u) && u >= from_utime && u < to_utime) {
@@ -129,8 +128,8 @@ FaultResult duplicate_messages(const std::string& in, const std::string& out, co
   });
 }
 
-FaultResult swap_neighbours(const std::string& in, const std::string& out, const std::string& channel, double fraction,
-                            std::int64_t max_apart_us, std::uint64_t seed) {
+FaultResult swap_neighbours(const std::string& in, const std::string& out, const std::string& channel, double fraction, std::int64_t max_apart_us,
+                            std::uint64_t seed) {
   FaultResult r;
   std::vector<LogEvent> events = read_all(in, &r.error);
   if (!r.error.empty()) return r;

@@ -8,18 +8,17 @@ namespace loopd::test {
 /// @brief What a fault transform did to a drive log.
 struct FaultResult {
   bool ok = false;
-  std::string error;             ///< why the copy failed (file, event index)
-  std::int64_t events_in = 0;    ///< events read from the input log
-  std::int64_t events_out = 0;   ///< events written to the faulty copy
-  std::int64_t affected = 0;     ///< messages the fault touched: dropped, removed, duplicated, swapped, re-stamped, replaced
+  std::string error;            ///< why the copy failed (file, event index)
+  std::int64_t events_in = 0;   ///< events read from the input log
+  std::int64_t events_out = 0;  ///< events written to the faulty copy
+  std::int64_t affected = 0;    ///< messages the fault touched: dropped, removed, duplicated, swapped, re-stamped, replaced
 };
 
 /// @brief Drops each message on `channel` with probability `fraction` (seeded, deterministic). `affected` = dropped.
 FaultResult drop_messages(const std::string& in, const std::string& out, const std::string& channel, double fraction, std::uint64_t seed);
 
 /// @brief Removes every message on `channel` whose utime lies in [from_utime, to_utime). `affected` = removed.
-FaultResult remove_window(const std::string& in, const std::string& out, const std::string& channel, std::int64_t from_utime,
-                          std::int64_t to_utime);
+FaultResult remove_window(const std::string& in, const std::string& out, const std::string& channel, std::int64_t from_utime, std::int64_t to_utime);
 
 /// @brief A data clock step: every message (on every channel) whose utime is >= `from_utime` gets utime + `shift_us`.
 ///        The logger's event timestamps stay as they were (monotonic): the logger's own clock did not jump, the
@@ -34,8 +33,8 @@ FaultResult duplicate_messages(const std::string& in, const std::string& out, co
 ///        swapped with the next message on the same channel (within `max_apart_us` of data time), so the newer one
 ///        arrives first. The events keep their positions' logger timestamps (monotonic). Swapped pairs never overlap.
 ///        `affected` = swapped pairs.
-FaultResult swap_neighbours(const std::string& in, const std::string& out, const std::string& channel, double fraction,
-                            std::int64_t max_apart_us, std::uint64_t seed);
+FaultResult swap_neighbours(const std::string& in, const std::string& out, const std::string& channel, double fraction, std::int64_t max_apart_us,
+                            std::uint64_t seed);
 
 /// @brief Each message on `channel` is delivered before the message on `ahead_of` with the same utime that precedes
 ///        it (a scan before its pose: two publishers, no order between them). Logger timestamps keep their

@@ -58,8 +58,8 @@ int copy_with_crafted_scans(const std::string& in, const std::string& out, const
     if (damage_header && index == 2 * after_event) {
       // A damaged event: a sync word and a header whose data length says 2^31 - 1, then a few bytes; the next
       // event follows intact. The reader must skip it and resynchronise.
-      const unsigned char bad[] = {0xED, 0xA1, 0xDA, 0x01, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 2,
-                                   0, 0, 0, 4, 0x7F, 0xFF, 0xFF, 0xFF, 'J', 'U', 'N', 'K', 1, 2, 3};
+      const unsigned char bad[] = {0xED, 0xA1, 0xDA, 0x01, 0, 0, 0,    0,    0,    0,    0,   1,   0,   0,   0, 0, 0, 0,
+                                   0,    2,    0,    0,    0, 4, 0x7F, 0xFF, 0xFF, 0xFF, 'J', 'U', 'N', 'K', 1, 2, 3};
       if (!writer.append_bytes(bad, sizeof(bad))) return -1;
     }
   }

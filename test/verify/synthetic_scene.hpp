@@ -10,8 +10,8 @@
 namespace loopd::test {
 
 /// Samples `n` points uniformly on the axis-aligned rectangle spanned by `origin`, `origin + a`, `origin + b`.
-inline void sample_rect(std::vector<Eigen::Vector3f>* out, const Eigen::Vector3f& origin, const Eigen::Vector3f& a, const Eigen::Vector3f& b,
-                        int n, std::mt19937* rng, float noise) {
+inline void sample_rect(std::vector<Eigen::Vector3f>* out, const Eigen::Vector3f& origin, const Eigen::Vector3f& a, const Eigen::Vector3f& b, int n,
+                        std::mt19937* rng, float noise) {
   std::uniform_real_distribution<float> u(0.f, 1.f);
   std::normal_distribution<float> g(0.f, 1.f);
   for (int i = 0; i < n; ++i) {
@@ -49,14 +49,14 @@ inline void sample_box(std::vector<Eigen::Vector3f>* out, const Eigen::Vector3f&
 inline std::vector<Eigen::Vector3f> street_scene(std::uint32_t seed, float noise = 0.01f) {
   std::mt19937 rng(seed);
   std::vector<Eigen::Vector3f> pts;
-  sample_rect(&pts, {-30, -12, 0}, {60, 0, 0}, {0, 24, 0}, 3000, &rng, noise);      // ground
-  sample_rect(&pts, {-30, 8, 0}, {22, 0, 0}, {0, 0, 9}, 900, &rng, noise);          // left facade, part 1
-  sample_rect(&pts, {-2, 9.5f, 0}, {28, 0, 0}, {0, 0, 14}, 1000, &rng, noise);      // left facade, part 2 (set back)
-  sample_rect(&pts, {-8, 8, 0}, {0, 1.5f, 0}, {0, 0, 9}, 120, &rng, noise);         // step between the two
-  sample_rect(&pts, {-30, -7, 0}, {14, 0, 0}, {0, 0, 7}, 700, &rng, noise);         // right facade before side street
-  sample_rect(&pts, {-16, -7, 0}, {0, -5, 0}, {0, 0, 7}, 300, &rng, noise);         // side-street corner
-  sample_rect(&pts, {-6, -7, 0}, {0, -5, 0}, {0, 0, 11}, 300, &rng, noise);         // other corner
-  sample_rect(&pts, {-6, -7, 0}, {30, 0, 0}, {0, 0, 11}, 1000, &rng, noise);        // right facade after side street
+  sample_rect(&pts, {-30, -12, 0}, {60, 0, 0}, {0, 24, 0}, 3000, &rng, noise);  // ground
+  sample_rect(&pts, {-30, 8, 0}, {22, 0, 0}, {0, 0, 9}, 900, &rng, noise);      // left facade, part 1
+  sample_rect(&pts, {-2, 9.5f, 0}, {28, 0, 0}, {0, 0, 14}, 1000, &rng, noise);  // left facade, part 2 (set back)
+  sample_rect(&pts, {-8, 8, 0}, {0, 1.5f, 0}, {0, 0, 9}, 120, &rng, noise);     // step between the two
+  sample_rect(&pts, {-30, -7, 0}, {14, 0, 0}, {0, 0, 7}, 700, &rng, noise);     // right facade before side street
+  sample_rect(&pts, {-16, -7, 0}, {0, -5, 0}, {0, 0, 7}, 300, &rng, noise);     // side-street corner
+  sample_rect(&pts, {-6, -7, 0}, {0, -5, 0}, {0, 0, 11}, 300, &rng, noise);     // other corner
+  sample_rect(&pts, {-6, -7, 0}, {30, 0, 0}, {0, 0, 11}, 1000, &rng, noise);    // right facade after side street
   sample_pole(&pts, 3, 6, 0.2f, 6, 150, &rng, noise);
   sample_pole(&pts, 14, 6.5f, 0.25f, 7, 150, &rng, noise);
   sample_pole(&pts, -20, -5.5f, 0.2f, 5, 150, &rng, noise);

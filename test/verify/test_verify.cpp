@@ -50,20 +50,22 @@ SimPair make_pair(const std::string& name, const Town& tq, const Eigen::Isometry
 }
 
 void print(const SimPair& p, const VerifyResult& r) {
-  std::printf("%-28s acc=%d stage=%-10s lcp=%.2f res=%.3f fit=%.2f deg=%.1f hung=%.2f (%d/%d/%d) terr=%.3f rerr=%.2f ms=%.1f/%.1f/%.1f/%.1f pts=%zu/%zu bytes=%zu/%zu cl=%zu/%zu %s\n",
-              p.name.c_str(), r.accepted, to_string(r.stage).c_str(), r.lcp_fraction, r.icp_residual, r.icp_fitness, r.degeneracy,
-              r.hungarian_consistency, r.clusters_matched, r.clusters_query, r.clusters_match, translation_error(r.T_match_query, p.T_match_query),
-              rotation_error_deg(r.T_match_query, p.T_match_query), r.ms_fourpcs, r.ms_gicp, r.ms_hungarian, r.ms_total, p.query.points.size(),
-              p.match.points.size(), p.query.bytes(), p.match.bytes(), p.query.segmentation.clusters.size(), p.match.segmentation.clusters.size(),
-              r.reason.c_str());
+  std::printf(
+      "%-28s acc=%d stage=%-10s lcp=%.2f res=%.3f fit=%.2f deg=%.1f hung=%.2f (%d/%d/%d) terr=%.3f rerr=%.2f ms=%.1f/%.1f/%.1f/%.1f pts=%zu/%zu "
+      "bytes=%zu/%zu cl=%zu/%zu %s\n",
+      p.name.c_str(), r.accepted, to_string(r.stage).c_str(), r.lcp_fraction, r.icp_residual, r.icp_fitness, r.degeneracy, r.hungarian_consistency,
+      r.clusters_matched, r.clusters_query, r.clusters_match, translation_error(r.T_match_query, p.T_match_query),
+      rotation_error_deg(r.T_match_query, p.T_match_query), r.ms_fourpcs, r.ms_gicp, r.ms_hungarian, r.ms_total, p.query.points.size(),
+      p.match.points.size(), p.query.bytes(), p.match.bytes(), p.query.segmentation.clusters.size(), p.match.segmentation.clusters.size(),
+      r.reason.c_str());
 }
 
 }  // namespace
 
 namespace {
 void check_true_loop(const SimPair& p, const VerifyResult& r) {
-  INFO(p.name << ": stage " << to_string(r.stage) << " reason '" << r.reason << "' lcp " << r.lcp_fraction << " fitness " << r.icp_fitness << " residual "
-              << r.icp_residual << " degeneracy " << r.degeneracy << " consistency " << r.hungarian_consistency);
+  INFO(p.name << ": stage " << to_string(r.stage) << " reason '" << r.reason << "' lcp " << r.lcp_fraction << " fitness " << r.icp_fitness
+              << " residual " << r.icp_residual << " degeneracy " << r.degeneracy << " consistency " << r.hungarian_consistency);
   CHECK(r.accepted);
   CHECK(r.stage == VerifyStage::kAccepted);
   CHECK(translation_error(r.T_match_query, p.T_match_query) < 0.2);
@@ -116,7 +118,7 @@ TEST_CASE("range-image GICP normals agree with k-nearest-neighbour normals where
   const double share = static_cast<double>(with_normal) / static_cast<double>(rn.size());
   const double median = angles[angles.size() / 2], p75 = angles[angles.size() * 3 / 4];
   INFO("voxels " << rn.size() << ", with a range-image normal " << share << ", angle to the kNN normal median " << median << " deg, p75 " << p75);
-  CHECK(share > 0.6);    // walls, ground and car bodies; edges, corners and trees get none
+  CHECK(share > 0.6);  // walls, ground and car bodies; edges, corners and trees get none
   CHECK(median < 5.0);
   CHECK(p75 < 10.0);
 }
@@ -140,8 +142,9 @@ TEST_CASE("near misses are rejected") {
   const Eigen::Isometry3d q0 = street_pose(town, 0, 0, 0, 22.0);
   SECTION("a different town built to the same pattern") {
     const Town other = make_other_town(1);
-    for (const auto& pr : {make_pair("other town", town, q0, 0, other, street_pose(other, 0, 0, 0, 22.0), 0),
-                           make_pair("other town, north street", town, street_pose(town, 2, 0, 1, 28.0), 0, other, street_pose(other, 2, 0, 1, 28.0), 0)}) {
+    for (const auto& pr :
+         {make_pair("other town", town, q0, 0, other, street_pose(other, 0, 0, 0, 22.0), 0),
+          make_pair("other town, north street", town, street_pose(town, 2, 0, 1, 28.0), 0, other, street_pose(other, 2, 0, 1, 28.0), 0)}) {
       const VerifyResult r = verify(pr.query, pr.match, VerifyConfig{});
       INFO(pr.name << ": stage " << to_string(r.stage) << " reason " << r.reason << " consistency " << r.hungarian_consistency);
       CHECK_FALSE(r.accepted);
@@ -154,8 +157,10 @@ TEST_CASE("near misses are rejected") {
   }
   SECTION("a featureless tunnel shifted 6 m along its axis: degenerate, rejected at the degeneracy stage") {
     const Town corridor = make_corridor();
-    const SimPair pr = make_pair("tunnel", corridor, street_pose(corridor, 0, 0, 0, 0.0, 0.0), 0, corridor, street_pose(corridor, 0, 0, 0, 6.0, 0.0), 0);
-    for (const VerifyResult& r : {verify(pr.query, pr.match, VerifyConfig{}), verify_from_guess(pr.query, pr.match, Eigen::Isometry3d::Identity(), VerifyConfig{})}) {
+    const SimPair pr =
+        make_pair("tunnel", corridor, street_pose(corridor, 0, 0, 0, 0.0, 0.0), 0, corridor, street_pose(corridor, 0, 0, 0, 6.0, 0.0), 0);
+    for (const VerifyResult& r :
+         {verify(pr.query, pr.match, VerifyConfig{}), verify_from_guess(pr.query, pr.match, Eigen::Isometry3d::Identity(), VerifyConfig{})}) {
       INFO("stage " << to_string(r.stage) << " reason " << r.reason << " degeneracy " << r.degeneracy);
       CHECK_FALSE(r.accepted);
       if (r.stage != VerifyStage::kFourPcs) {
@@ -268,7 +273,8 @@ TEST_CASE("real KITTI seq 00: same place accepted within 0.2 m / 1 deg of ground
   const TrajectoryFile kitti = read_kitti_lidar_poses(poses_file, calib_file);
   REQUIRE(kitti.ok);
   const std::vector<Eigen::Isometry3d>& velo_poses = kitti.poses;  // T_world_velo
-  const PreparedScan s0 = prepare_kitti(f0), s94 = prepare_kitti(f94), s95 = prepare_kitti(f95), s198 = prepare_kitti(f198), s199 = prepare_kitti(f199);
+  const PreparedScan s0 = prepare_kitti(f0), s94 = prepare_kitti(f94), s95 = prepare_kitti(f95), s198 = prepare_kitti(f198),
+                     s199 = prepare_kitti(f199);
   CHECK(s94.bytes() <= 125 * 1024);
   // Same place (consecutive frames; the README checks these two against the ground truth to mm).
   for (const auto& [q, m, qi, mi] : {std::tuple<const PreparedScan*, const PreparedScan*, int, int>{&s95, &s94, 95, 94}, {&s199, &s198, 199, 198}}) {
@@ -276,8 +282,8 @@ TEST_CASE("real KITTI seq 00: same place accepted within 0.2 m / 1 deg of ground
     const Eigen::Isometry3d Tm = velo_poses.at(static_cast<std::size_t>(mi));
     const Eigen::Isometry3d truth = Tm.inverse() * Tq;
     const VerifyResult r = verify(*q, *m, VerifyConfig{});
-    INFO(qi << "->" << mi << " stage " << to_string(r.stage) << " reason " << r.reason << " t " << r.T_match_query.translation().transpose() << " truth "
-            << truth.translation().transpose());
+    INFO(qi << "->" << mi << " stage " << to_string(r.stage) << " reason " << r.reason << " t " << r.T_match_query.translation().transpose()
+            << " truth " << truth.translation().transpose());
     CHECK(r.accepted);
     CHECK(translation_error(r.T_match_query, truth) < 0.2);
     CHECK(rotation_error_deg(r.T_match_query, truth) < 1.0);
@@ -316,7 +322,8 @@ TEST_CASE("explore verify on simulated pairs", "[.explore]") {
   pairs.push_back(make_pair("opposite-dir", town, q0, 0, town, ground_pose(town, p.x() + 0.5, p.y() + 4.0, yaw + M_PI), 1));
   pairs.push_back(make_pair("lane-offset 3m", town, q0, 0, town, street_pose(town, 0, 0, 0, 22.5, -2.0 + 3.0), 2));
   pairs.push_back(make_pair("other-town", town, q0, 0, other, street_pose(other, 0, 0, 0, 22.0), 0));
-  pairs.push_back(make_pair("corridor 6m", corridor, street_pose(corridor, 0, 0, 0, 0.0, 0.0), 0, corridor, street_pose(corridor, 0, 0, 0, 6.0, 0.0), 0));
+  pairs.push_back(
+      make_pair("corridor 6m", corridor, street_pose(corridor, 0, 0, 0, 0.0, 0.0), 0, corridor, street_pose(corridor, 0, 0, 0, 6.0, 0.0), 0));
   for (int k = 1; k < 4; ++k) {
     const Eigen::Isometry3d qk = street_pose(town, k, 0, 1, 18.0 + 5 * k);
     pairs.push_back(make_pair("north " + std::to_string(k), town, qk, 0, town, street_pose(town, k, 0, 1, 18.7 + 5 * k, -1.5), 1));
@@ -329,8 +336,9 @@ TEST_CASE("explore verify on simulated pairs", "[.explore]") {
       gc.num_threads = 1;
       gc.k_neighbors = k;
       const GicpResult gr = align_gicp(pr.query.points, pr.match.points, pr.T_match_query * make_isometry(0.3, 0.2, 0, 0.03), gc);
-      std::printf("  k=%d gicp %.1f ms (cov %.1f) it=%d conv=%d terr=%.3f rerr=%.3f fit=%.3f res=%.3f deg=%.1f\n", k, g.ms(), gr.ms_covariances, gr.iterations, gr.converged,
-                  translation_error(gr.T_target_source, pr.T_match_query), rotation_error_deg(gr.T_target_source, pr.T_match_query), gr.fitness, gr.residual, gr.degeneracy);
+      std::printf("  k=%d gicp %.1f ms (cov %.1f) it=%d conv=%d terr=%.3f rerr=%.3f fit=%.3f res=%.3f deg=%.1f\n", k, g.ms(), gr.ms_covariances,
+                  gr.iterations, gr.converged, translation_error(gr.T_target_source, pr.T_match_query),
+                  rotation_error_deg(gr.T_target_source, pr.T_match_query), gr.fitness, gr.residual, gr.degeneracy);
     }
     if (std::getenv("GICP_ONLY")) continue;
     const VerifyResult r = verify(pr.query, pr.match, cfg);
@@ -365,8 +373,8 @@ TEST_CASE("explore clusters", "[.clusters]") {
           best = (m.centroid - q).norm();
           bc = &m;
         }
-      std::printf("  n=%5d planar=%d ext=%5.1f/%4.1f z=%5.1f r=%5.1f  nearest=%5.2f (n=%5d ext=%5.1f)\n", c.num_points, c.planar, c.extent_major, c.extent_minor, c.centroid.z(),
-                  c.centroid.norm(), best, bc ? bc->num_points : 0, bc ? bc->extent_major : 0.f);
+      std::printf("  n=%5d planar=%d ext=%5.1f/%4.1f z=%5.1f r=%5.1f  nearest=%5.2f (n=%5d ext=%5.1f)\n", c.num_points, c.planar, c.extent_major,
+                  c.extent_minor, c.centroid.z(), c.centroid.norm(), best, bc ? bc->num_points : 0, bc ? bc->extent_major : 0.f);
     }
   }
 }

@@ -11,9 +11,7 @@
 
 namespace loopd::tools {
 namespace {
-double now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+double now_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 std::int64_t read_status_kb(const char* key) {
   std::ifstream in("/proc/self/status");
   std::string line;
@@ -85,16 +83,16 @@ std::string fmt(double v, int precision) {
   return buf;
 }
 
-void print_json_line(const nlohmann::json& j) {
-  std::cout << j.dump() << std::endl;
-}
+void print_json_line(const nlohmann::json& j) { std::cout << j.dump() << std::endl; }
 
 Summary summarize(std::vector<double> v) {
   Summary s;
   s.count = v.size();
   if (v.empty()) return s;
   std::sort(v.begin(), v.end());
-  auto q = [&](double p) { return v[std::min(v.size() - 1, static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size()))) - (p > 0 ? 1 : 0))]; };
+  auto q = [&](double p) {
+    return v[std::min(v.size() - 1, static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size()))) - (p > 0 ? 1 : 0))];
+  };
   s.median = v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
   s.p95 = q(0.95);
   s.max = v.back();

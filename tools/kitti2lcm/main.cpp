@@ -71,9 +71,7 @@ int main(int argc, char** argv) {
   bool skip_missing = false, json = false, quiet = false;
   OdometryDriftConfig drift;
   std::string scan_channel = channels::kScan, gt_channel = channels::kGroundTruth, odom_channel = channels::kPose;
-  app.add_option("--sequence", sequence,
-                 "sequence folder: sequences/NN (scans in NN/velodyne/NNNNNN.bin) or a folder holding the scans")
-      ->required();
+  app.add_option("--sequence", sequence, "sequence folder: sequences/NN (scans in NN/velodyne/NNNNNN.bin) or a folder holding the scans")->required();
   app.add_option("--poses", poses_path, "ground-truth poses poses/NN.txt (KITTI, camera frame)")->required();
   app.add_option("--out", out, "output LCM log")->required();
   app.add_option("--calib", calib_path, "calibration with the 'Tr:' line (default: SEQUENCE/calib.txt)");
@@ -84,16 +82,13 @@ int main(int argc, char** argv) {
   app.add_option("--heading-bias", drift.heading_bias_deg_per_m, "[deg/m] injected yaw bias")->capture_default_str();
   app.add_option("--scale-bias", drift.scale_bias, "injected relative step-length error")->capture_default_str();
   app.add_option("--yaw-walk", drift.yaw_random_walk_deg, "[deg/sqrt(step)] injected yaw random walk")->capture_default_str();
-  app.add_option("--translation-noise", drift.translation_noise, "[m/sqrt(step)] injected translation noise")
-      ->capture_default_str();
+  app.add_option("--translation-noise", drift.translation_noise, "[m/sqrt(step)] injected translation noise")->capture_default_str();
   app.add_option("--residual-base", drift.residual_base, "[m] residual of an unperturbed step")->capture_default_str();
   app.add_option("--max-frames", max_frames, "convert at most this many frames");
   app.add_option("--utime-offset", utime_offset, "[us] added to times (utime = offset + time * 1e6)")->capture_default_str();
-  app.add_option("--sensor", sensor,
-                 "fill ring indices from point elevations with this lidar model (KITTI: hdl64); default: no rings");
+  app.add_option("--sensor", sensor, "fill ring indices from point elevations with this lidar model (KITTI: hdl64); default: no rings");
   app.add_option("--frame", frame, "sensor frame name in point_cloud_t")->capture_default_str();
-  app.add_flag("--skip-missing-scans", skip_missing,
-               "frames without a scan file still get poses (default: a missing scan is an error)");
+  app.add_flag("--skip-missing-scans", skip_missing, "frames without a scan file still get poses (default: a missing scan is an error)");
   app.add_option("--scan-channel", scan_channel)->capture_default_str();
   app.add_option("--ground-truth-channel", gt_channel)->capture_default_str();
   app.add_option("--odometry-channel", odom_channel)->capture_default_str();
@@ -112,8 +107,7 @@ int main(int argc, char** argv) {
   const std::string velodyne_dir = fs::is_directory(sequence + "/velodyne", fs_error) ? sequence + "/velodyne" : sequence;
   if (calib_path.empty()) calib_path = sequence + "/calib.txt";
   std::string error;
-  if (!fs::exists(calib_path, fs_error))
-    return fail("calibration file " + calib_path + " not found (give it with --calib)");
+  if (!fs::exists(calib_path, fs_error)) return fail("calibration file " + calib_path + " not found (give it with --calib)");
   const KittiCalibration calib = read_kitti_calib_tr(calib_path);
   if (!calib.ok) return fail(calib.error);
   const Eigen::Isometry3d& T_cam_velo = calib.T_cam_velo;
@@ -128,8 +122,7 @@ int main(int argc, char** argv) {
     if (!read.ok) return fail(read.error);
     times = std::move(read.seconds);
     if (times.size() < gt.size())
-      return fail(times_path + " has " + std::to_string(times.size()) + " times but " + poses_path + " has " +
-                  std::to_string(gt.size()) + " poses");
+      return fail(times_path + " has " + std::to_string(times.size()) + " times but " + poses_path + " has " + std::to_string(gt.size()) + " poses");
   } else if (period > 0.0) {
     for (std::size_t i = 0; i < gt.size(); ++i) times.push_back(static_cast<double>(i) * period);
   } else {
@@ -145,8 +138,8 @@ int main(int argc, char** argv) {
     const TrajectoryFile cam_odom = read_trajectory(odometry_path, TrajectoryFormat::kKitti);
     if (!cam_odom.ok) return fail(cam_odom.error);
     if (cam_odom.poses.size() < n)
-      return fail(odometry_path + " has " + std::to_string(cam_odom.poses.size()) + " poses, fewer than the " +
-                  std::to_string(n) + " frames converted");
+      return fail(odometry_path + " has " + std::to_string(cam_odom.poses.size()) + " poses, fewer than the " + std::to_string(n) +
+                  " frames converted");
     odom = kitti_camera_to_lidar(cam_odom.poses, T_cam_velo);
     residuals.assign(odom.size(), 0.0);
   } else {
@@ -181,8 +174,7 @@ int main(int argc, char** argv) {
       if (!read.ok) return fail(read.error);
       cloud = std::move(read.cloud);
       if (model) assign_rings(*model, &cloud);
-      if (!writer.write_message(scan_channel, utime, to_message(cloud, utime, seq, frame)))
-        return fail("cannot write to " + out);
+      if (!writer.write_message(scan_channel, utime, to_message(cloud, utime, seq, frame))) return fail("cannot write to " + out);
       ++scans;
       points += static_cast<std::int64_t>(cloud.size());
     }

@@ -48,8 +48,7 @@ int run_bench_correct(int argc, char** argv) {
   std::vector<LoopConstraint> loops;
   for (int k = 0; k < num_loops; ++k)
     loops.push_back(all_loops[static_cast<std::size_t>(k) * all_loops.size() / static_cast<std::size_t>(num_loops)]);
-  loops.erase(std::unique(loops.begin(), loops.end(), [](const auto& a, const auto& b) { return a.query_index == b.query_index; }),
-              loops.end());
+  loops.erase(std::unique(loops.begin(), loops.end(), [](const auto& a, const auto& b) { return a.query_index == b.query_index; }), loops.end());
 
   struct Row {
     std::string name;
@@ -105,7 +104,9 @@ int run_bench_correct(int argc, char** argv) {
   std::cout << "synthetic drive: " << poses << " keyframes, " << loops.size() << " loops, pose error before: mean " << fmt(before.mean_closest)
             << " m, median " << fmt(before.median_closest) << " m, ATE " << fmt(before.ate_rmse) << " m\n";
   tools::Table table({"method", "median ms", "p95 ms", "max ms", "runs", "mean err [m]", "median err [m]", "ATE [m]"});
-  nlohmann::json j{{"poses", poses}, {"loops", loops.size()}, {"before", {{"mean_closest", before.mean_closest}, {"median_closest", before.median_closest}, {"ate_rmse", before.ate_rmse}}}};
+  nlohmann::json j{{"poses", poses},
+                   {"loops", loops.size()},
+                   {"before", {{"mean_closest", before.mean_closest}, {"median_closest", before.median_closest}, {"ate_rmse", before.ate_rmse}}}};
   nlohmann::json methods = nlohmann::json::array();
   for (const Row& r : rows) {
     table.add({r.name, fmt(r.ms.median, 3), fmt(r.ms.p95, 3), fmt(r.ms.max, 3), std::to_string(r.ms.count), fmt(r.error.mean_closest),

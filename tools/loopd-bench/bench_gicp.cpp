@@ -183,26 +183,28 @@ int run_bench_gicp(int argc, char** argv) {
         const bench::PclGicpResult q = bench::pcl_gicp_align(p.source.points, p.target.points, init, pcl_distance, 64, gicp.k_neighbors);
         if (q.available) {
           record(&pcl, q.T_target_source, p.truth, q.ms, cpu_ms() - c1);
-          pcl_err = tools::fmt((q.T_target_source.translation() - p.truth.translation()).norm(), 3) + " / " + tools::fmt(rot_err_deg(q.T_target_source, p.truth), 2);
+          pcl_err = tools::fmt((q.T_target_source.translation() - p.truth.translation()).norm(), 3) + " / " +
+                    tools::fmt(rot_err_deg(q.T_target_source, p.truth), 2);
           pcl_ms = tools::fmt(q.ms, 1);
         }
       }
       per_pair.add({p.name, std::to_string(p.source.points.size()) + "/" + std::to_string(p.target.points.size()),
                     tools::fmt((init.translation() - p.truth.translation()).norm(), 2) + " / " + tools::fmt(rot_err_deg(init, p.truth), 1),
-                    tools::fmt(full.terr.back(), 3) + " / " + tools::fmt(full.rerr.back(), 2), tools::fmt(ms_a, 1), tools::fmt(cached.ms.back(), 1), pcl_err,
-                    pcl_ms});
+                    tools::fmt(full.terr.back(), 3) + " / " + tools::fmt(full.rerr.back(), 2), tools::fmt(ms_a, 1), tools::fmt(cached.ms.back(), 1),
+                    pcl_err, pcl_ms});
       run_prog.update(++done);
     }
   }
   run_prog.finish();
 
   nlohmann::json j;
-  tools::Table summary({"method", "runs", "success (<0.2 m, <1 deg)", "err m median", "err m p95", "err deg median", "ms median", "ms p95", "ms max", "CPU ms median", "CPU ms p95"});
+  tools::Table summary({"method", "runs", "success (<0.2 m, <1 deg)", "err m median", "err m p95", "err deg median", "ms median", "ms p95", "ms max",
+                        "CPU ms median", "CPU ms p95"});
   for (Method* m : {&full, &cached, &pcl}) {
     if (m->runs == 0) continue;
     const auto ms = tools::summarize(m->ms), te = tools::summarize(m->terr), re = tools::summarize(m->rerr), cpu = tools::summarize(m->cpu);
-    summary.add({m->name, std::to_string(m->runs), std::to_string(m->success) + "/" + std::to_string(m->runs), tools::fmt(te.median, 4), tools::fmt(te.p95, 4),
-                 tools::fmt(re.median, 3), tools::fmt(ms.median, 1), tools::fmt(ms.p95, 1), tools::fmt(ms.max, 1),
+    summary.add({m->name, std::to_string(m->runs), std::to_string(m->success) + "/" + std::to_string(m->runs), tools::fmt(te.median, 4),
+                 tools::fmt(te.p95, 4), tools::fmt(re.median, 3), tools::fmt(ms.median, 1), tools::fmt(ms.p95, 1), tools::fmt(ms.max, 1),
                  tools::fmt(cpu.median, 1), tools::fmt(cpu.p95, 1)});
     j[m->name] = {{"runs", m->runs},
                   {"success", m->success},
@@ -229,7 +231,10 @@ int run_bench_gicp(int argc, char** argv) {
     return 0;
   }
   std::cout << per_pair.str() << "\n" << summary.str();
-  if (pcl.runs > 0) std::cout << "speed-up vs PCL (median ms): " << tools::fmt(speedup, 1) << "x, with cached normals " << tools::fmt(speedup_cached, 1) << "x; in CPU time " << tools::fmt(speedup_cpu, 1) << "x\n";
-  std::cout << "voxel " << prep.voxel_size << " m, k " << gicp.k_neighbors << ", " << threads << " threads; machine load affects ms (2 shared cores)\n";
+  if (pcl.runs > 0)
+    std::cout << "speed-up vs PCL (median ms): " << tools::fmt(speedup, 1) << "x, with cached normals " << tools::fmt(speedup_cached, 1)
+              << "x; in CPU time " << tools::fmt(speedup_cpu, 1) << "x\n";
+  std::cout << "voxel " << prep.voxel_size << " m, k " << gicp.k_neighbors << ", " << threads
+            << " threads; machine load affects ms (2 shared cores)\n";
   return 0;
 }

@@ -127,9 +127,15 @@ int run_bench_m2dp(int argc, char** argv) {
 
   const std::string backend_used = to_string(m2dp.backend());
   if (json) {
-    nlohmann::json j = {{"median_ms", s.median}, {"p95_ms", s.p95},  {"max_ms", s.max},
-                        {"points", mean_points},  {"runs", s.count}, {"backend", backend_used},
-                        {"device", m2dp.device_name()}, {"frame", frame_name}, {"max_points", max_points},
+    nlohmann::json j = {{"median_ms", s.median},
+                        {"p95_ms", s.p95},
+                        {"max_ms", s.max},
+                        {"points", mean_points},
+                        {"runs", s.count},
+                        {"backend", backend_used},
+                        {"device", m2dp.device_name()},
+                        {"frame", frame_name},
+                        {"max_points", max_points},
                         {"peak_rss_bytes", tools::peak_rss_bytes()}};
     if (store_size > 0) {
       j["store_size"] = store_size;
@@ -139,8 +145,8 @@ int run_bench_m2dp(int argc, char** argv) {
     tools::print_json_line(j);
   } else {
     tools::Table t({"backend", "device", "frame", "points", "runs", "median ms", "p95 ms", "peak MB"});
-    t.add({backend_used, m2dp.device_name(), frame_name, tools::fmt(mean_points, 0), std::to_string(s.count), tools::fmt(s.median),
-           tools::fmt(s.p95), tools::fmt(static_cast<double>(tools::peak_rss_bytes()) / 1e6, 1)});
+    t.add({backend_used, m2dp.device_name(), frame_name, tools::fmt(mean_points, 0), std::to_string(s.count), tools::fmt(s.median), tools::fmt(s.p95),
+           tools::fmt(static_cast<double>(tools::peak_rss_bytes()) / 1e6, 1)});
     std::cout << t.str();
     if (store_size > 0)
       std::cout << "DescriptorStore knn k=10 among " << store_size << ": median " << tools::fmt(knn_median) << " ms, p95 " << tools::fmt(knn_p95)

@@ -71,7 +71,7 @@ struct RunResult {
 
 RunResult run_once(const std::vector<Input>& inputs, const EngineConfig& base, double speed) {
   EngineConfig config = base;
-  config.block_when_full = speed <= 0.0;  // as fast as possible = replay (never sheds); paced = live policy
+  config.block_when_full = speed <= 0.0;              // as fast as possible = replay (never sheds); paced = live policy
   config.detector.parallel_candidates = speed > 0.0;  // as the daemon does live
   LatencySink sink;
   RunResult r;
@@ -181,7 +181,8 @@ int run_bench_pipeline(int argc, char** argv) {
 
   tools::Table t({"figure", "replay (as fast as possible)", skip_paced ? "" : "paced at " + fmt(paced_speed, 1) + "x (live policy)"});
   auto row = [&](const std::string& name, const std::string& a, const std::string& b) { t.add({name, a, skip_paced ? "" : b}); };
-  row("scans / keyframes", std::to_string(scans) + " / " + std::to_string(replay.stats.keyframes), std::to_string(scans) + " / " + std::to_string(paced.stats.keyframes));
+  row("scans / keyframes", std::to_string(scans) + " / " + std::to_string(replay.stats.keyframes),
+      std::to_string(scans) + " / " + std::to_string(paced.stats.keyframes));
   row("data / wall [s]", fmt(replay.data_s, 1) + " / " + fmt(replay.wall_s, 1), fmt(paced.data_s, 1) + " / " + fmt(paced.wall_s, 1));
   row("x real time", fmt(replay.data_s / replay.wall_s, 2), fmt(paced.data_s / std::max(1e-9, paced.wall_s), 2));
   row("loops accepted / decisions", std::to_string(replay.accepted) + " / " + std::to_string(replay.decisions),

@@ -49,9 +49,7 @@ namespace {
 std::atomic<bool> g_interrupted{false};
 extern "C" void on_interrupt(int) { g_interrupted.store(true); }
 
-std::int64_t wall_us() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
+std::int64_t wall_us() { return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 double mono_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 /// @brief Output of a shell command (stdout and stderr), "" when it cannot run.
@@ -128,12 +126,12 @@ void set_pose(const Eigen::Isometry3d& T, pose_t* m) {
 
 /// @brief Where one loop of the drive ends and how the next one continues it.
 struct LoopPlan {
-  std::int64_t first_utime = 0;  ///< utime of the first scan or pose
-  std::int64_t cut_utime = 0;    ///< events with utime < cut_utime make one loop; the next loop starts here
+  std::int64_t first_utime = 0;          ///< utime of the first scan or pose
+  std::int64_t cut_utime = 0;            ///< events with utime < cut_utime make one loop; the next loop starts here
   std::int64_t scan_period_us = 100000;  ///< median scan interval (the stop repeats the last scan at this rate)
   Eigen::Isometry3d odom_first = Eigen::Isometry3d::Identity(), odom_cut = Eigen::Isometry3d::Identity();
   std::int64_t scans_per_loop = 0, poses_per_loop = 0;
-  double return_gap_m = 0.0;    ///< distance between the start and the cut (ground truth, else odometry)
+  double return_gap_m = 0.0;  ///< distance between the start and the cut (ground truth, else odometry)
   bool from_ground_truth = false;
   std::string error;
 };
@@ -306,8 +304,8 @@ bool publish_msg(lcm::LCM& lcm, const std::string& channel, const Msg& m, std::v
   return lcm.publish(channel, buf->data(), static_cast<unsigned int>(buf->size())) == 0;
 }
 
-void publish_loops(const std::string& url, const std::string& drive, const LoopPlan& plan, double speed, double stop_s,
-                   Listener* listener, const std::atomic<bool>* stop, PublishStats* stats) {
+void publish_loops(const std::string& url, const std::string& drive, const LoopPlan& plan, double speed, double stop_s, Listener* listener,
+                   const std::atomic<bool>* stop, PublishStats* stats) {
   lcm::LCM lcm(url);
   if (!lcm.good()) {
     stats->error = "cannot open LCM for publishing on " + url;
@@ -332,7 +330,7 @@ void publish_loops(const std::string& url, const std::string& drive, const LoopP
   const Eigen::Isometry3d step = plan.odom_cut * plan.odom_first.inverse();
   std::vector<std::uint8_t> buf;
   Eigen::Isometry3d chain = Eigen::Isometry3d::Identity();  // T_k: maps the drive's odometry onto loop k's
-  std::int64_t offset = 0;                                     // utime shift of loop k
+  std::int64_t offset = 0;                                  // utime shift of loop k
   for (std::int64_t k = 0; !stop->load(); ++k) {
     LogReader reader;
     std::string error;
@@ -412,8 +410,8 @@ struct RssFit {
   bool ok = false;
   double mb_per_min = 0, kb_per_keyframe = 0, intercept_mb = 0, t_k_correlation = 0, rms_mb = 0;
   double mb_per_min_se = 0, kb_per_keyframe_se = 0;  ///< standard errors of the two slopes
-  double plain_mb_per_min = 0;       ///< RSS against time alone
-  double residual_mb_per_min = 0;    ///< (RSS - keyframes * status bytes_per_keyframe) against time
+  double plain_mb_per_min = 0;                       ///< RSS against time alone
+  double residual_mb_per_min = 0;                    ///< (RSS - keyframes * status bytes_per_keyframe) against time
   int samples = 0;
 };
 
@@ -462,8 +460,8 @@ struct Window {
   std::size_t latency_n = 0, events = 0;
 };
 
-std::vector<Window> make_windows(const std::vector<Sample>& samples, const std::vector<double>& events,
-                                 const std::vector<LatencySample>& latency, double window_s, double total_s) {
+std::vector<Window> make_windows(const std::vector<Sample>& samples, const std::vector<double>& events, const std::vector<LatencySample>& latency,
+                                 double window_s, double total_s) {
   std::vector<Window> out;
   for (double from = 0; from < total_s - 1e-6; from += window_s) {
     double to = std::min(total_s, from + window_s);
@@ -503,8 +501,8 @@ std::string write_plot(const std::string& dir, const std::vector<Sample>& sample
     std::ofstream f(dat);
     f << "# minutes rss_mb keyframes threads fds scans_published\n";
     for (const auto& s : samples)
-      f << s.t_s / 60.0 << ' ' << static_cast<double>(s.proc.rss_bytes) / 1e6 << ' ' << s.keyframes << ' ' << s.proc.threads << ' '
-        << s.proc.fds << ' ' << s.scans_published << '\n';
+      f << s.t_s / 60.0 << ' ' << static_cast<double>(s.proc.rss_bytes) / 1e6 << ' ' << s.keyframes << ' ' << s.proc.threads << ' ' << s.proc.fds
+        << ' ' << s.scans_published << '\n';
   }
   {
     std::ofstream f(gp);
@@ -555,15 +553,15 @@ std::string last_line(const std::string& path) {
 }  // namespace
 
 int run_bench_soak(int argc, char** argv) {
-  CLI::App app("loopd-bench soak: the loopd binary live for N minutes against a looping drive; memory, threads, fds, latency",
-               "loopd-bench soak");
+  CLI::App app("loopd-bench soak: the loopd binary live for N minutes against a looping drive; memory, threads, fds, latency", "loopd-bench soak");
   double minutes = 30.0, speed = 1.0, poll_s = 10.0, window_min = 5.0, stop_s = 10.0, warmup_min = 1.0, term_timeout_s = 60.0;
   std::string drive, sensor = "vlp16", loopd_bin, sim_bin, out_dir = (fs::temp_directory_path() / "loopd-soak").string();
   int port = 7600 + static_cast<int>(getpid() % 60), threads = -1, sim_scans = 400;
   bool json = false;
   app.add_option("--minutes", minutes, "how long to run; the bench stops itself after this")->capture_default_str()->check(CLI::Range(0.1, 100000.0));
-  app.add_option("--drive", drive, "lcm-logger drive with LIDAR_SCAN and ODOMETRY_POSE (GROUND_TRUTH_POSE helps to cut laps); "
-                                   "default: generated with loopd-sim into --out");
+  app.add_option("--drive", drive,
+                 "lcm-logger drive with LIDAR_SCAN and ODOMETRY_POSE (GROUND_TRUTH_POSE helps to cut laps); "
+                 "default: generated with loopd-sim into --out");
   app.add_option("--speed", speed, "play speed, 1 = real time")->capture_default_str()->check(CLI::Range(0.01, 100.0));
   app.add_option("--sensor", sensor, "lidar preset for loopd (and loopd-sim)")->capture_default_str();
   app.add_option("--loopd", loopd_bin, "loopd binary (default: build/daemon/loopd beside this build, or next to this binary)");
@@ -573,7 +571,9 @@ int run_bench_soak(int argc, char** argv) {
   app.add_option("--port", port, "UDP port on 239.255.76.67 (ttl=0, loopback only)")->capture_default_str()->check(CLI::Range(1024, 65535));
   app.add_option("--poll-s", poll_s, "seconds between samples of the daemon process")->capture_default_str()->check(CLI::Range(1.0, 600.0));
   app.add_option("--window-min", window_min, "minutes per table row")->capture_default_str()->check(CLI::Range(0.1, 10000.0));
-  app.add_option("--stop-s", stop_s, "seconds the vehicle stands still after each loop (0: none)")->capture_default_str()->check(CLI::Range(0.0, 3600.0));
+  app.add_option("--stop-s", stop_s, "seconds the vehicle stands still after each loop (0: none)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 3600.0));
   app.add_option("--warmup-min", warmup_min, "minutes left out of the RSS fit (start-up allocations)")->capture_default_str();
   app.add_option("--out", out_dir, "folder for the generated drive, loopd.log, soak.dat and soak_rss.png")->capture_default_str();
   app.add_flag("--json", json, "one JSON object as the last stdout line");
@@ -687,9 +687,9 @@ int run_bench_soak(int argc, char** argv) {
     }
     s.scans_published = pub.scans.load();
     samples.push_back(s);
-    std::cerr << "loopd-bench soak: " << fmt(t / 60.0, 1) << " min: RSS " << fmt(static_cast<double>(s.proc.rss_bytes) / 1e6, 0)
-              << " MB, keyframes " << s.keyframes << ", threads " << s.proc.threads << ", fds " << s.proc.fds << ", scans published "
-              << s.scans_published << ", loops played " << pub.loops.load() << "\n";
+    std::cerr << "loopd-bench soak: " << fmt(t / 60.0, 1) << " min: RSS " << fmt(static_cast<double>(s.proc.rss_bytes) / 1e6, 0) << " MB, keyframes "
+              << s.keyframes << ", threads " << s.proc.threads << ", fds " << s.proc.fds << ", scans published " << s.scans_published
+              << ", loops played " << pub.loops.load() << "\n";
   };
   take_sample(0.0);
   for (double next = poll_s; !g_interrupted.load();) {
@@ -769,29 +769,29 @@ int run_bench_soak(int argc, char** argv) {
   s.add({"loops played / scans published", std::to_string(pub.loops.load()) + " / " + std::to_string(pub.scans.load())});
   s.add({"keyframes / loops accepted (status)", std::to_string(last.keyframes) + " / " + std::to_string(last.loops_accepted)});
   s.add({"RSS start / after warm-up / end [MB]", fmt(static_cast<double>(first.proc.rss_bytes) / 1e6, 0) + " / " +
-                                                      fmt(static_cast<double>(after_warmup->proc.rss_bytes) / 1e6, 0) + " / " +
-                                                      fmt(static_cast<double>(last.proc.rss_bytes) / 1e6, 0)});
+                                                     fmt(static_cast<double>(after_warmup->proc.rss_bytes) / 1e6, 0) + " / " +
+                                                     fmt(static_cast<double>(last.proc.rss_bytes) / 1e6, 0)});
   if (fit.ok) {
     s.add({"RSS fit: MB/min (keyframes taken out)", fmt(fit.mb_per_min, 3) + " +- " + fmt(fit.mb_per_min_se, 3)});
     s.add({"RSS fit: KB per keyframe", fmt(fit.kb_per_keyframe, 1) + " +- " + fmt(fit.kb_per_keyframe_se, 1)});
-    s.add({"RSS fit: rms [MB] / samples / corr(time, keyframes)", fmt(fit.rms_mb, 1) + " / " + std::to_string(fit.samples) + " / " +
-                                                                     fmt(fit.t_k_correlation, 4)});
+    s.add({"RSS fit: rms [MB] / samples / corr(time, keyframes)",
+           fmt(fit.rms_mb, 1) + " / " + std::to_string(fit.samples) + " / " + fmt(fit.t_k_correlation, 4)});
     s.add({"RSS - keyframes x status bytes/keyframe: MB/min", fmt(fit.residual_mb_per_min, 3)});
     s.add({"RSS against time alone: MB/min", fmt(fit.plain_mb_per_min, 3)});
   }
-  s.add({"threads start / after warm-up / end", std::to_string(first.proc.threads) + " / " + std::to_string(after_warmup->proc.threads) +
-                                                    " / " + std::to_string(last.proc.threads)});
-  s.add({"fds start / after warm-up / end", std::to_string(first.proc.fds) + " / " + std::to_string(after_warmup->proc.fds) + " / " +
-                                                std::to_string(last.proc.fds)});
+  s.add({"threads start / after warm-up / end",
+         std::to_string(first.proc.threads) + " / " + std::to_string(after_warmup->proc.threads) + " / " + std::to_string(last.proc.threads)});
+  s.add({"fds start / after warm-up / end",
+         std::to_string(first.proc.fds) + " / " + std::to_string(after_warmup->proc.fds) + " / " + std::to_string(last.proc.fds)});
   s.add({"latency [ms] median / p95 / p99 / max (n)", fmt(lat.median, 0) + " / " + fmt(lat.p95, 0) + " / " + fmt(p99(all_ms), 0) + " / " +
                                                           fmt(lat.max, 0) + " (" + std::to_string(lat.count) + ")"});
   s.add({"events / accepted (heard)", std::to_string(events.size()) + " / " + std::to_string(listener.accepted())});
-  s.add({"shed / dropped / scans lost (status)", std::to_string(last.shed) + " / " + std::to_string(last.dropped) + " / " +
-                                                     std::to_string(last.scans_lost)});
+  s.add({"shed / dropped / scans lost (status)",
+         std::to_string(last.shed) + " / " + std::to_string(last.dropped) + " / " + std::to_string(last.scans_lost)});
   s.add({"publisher > 1 s behind schedule", std::to_string(pub.behind.load())});
-  s.add({"loopd exit code after SIGTERM", daemon_died ? "died during the run: " + std::to_string(daemon_rc)
-                                                      : std::to_string(daemon_rc) + (killed ? " (SIGKILL after " + fmt(term_timeout_s, 0) + " s)"
-                                                                                            : " (" + fmt(term_s, 1) + " s)")});
+  s.add({"loopd exit code after SIGTERM",
+         daemon_died ? "died during the run: " + std::to_string(daemon_rc)
+                     : std::to_string(daemon_rc) + (killed ? " (SIGKILL after " + fmt(term_timeout_s, 0) + " s)" : " (" + fmt(term_s, 1) + " s)")});
   s.add({"plot", png.empty() ? plot_error : png});
   std::cout << s.str();
   std::cout << "loopd's last line: " << last_line(daemon_log) << "\n";
@@ -802,8 +802,15 @@ int run_bench_soak(int argc, char** argv) {
   if (json) {
     nlohmann::json jw = nlohmann::json::array();
     for (const auto& w : windows)
-      jw.push_back({{"from_min", w.from_min}, {"to_min", w.to_min}, {"rss_mb", w.rss_mb}, {"keyframes", w.keyframes},
-                    {"threads", w.threads}, {"fds", w.fds}, {"p99_latency_ms", w.p99_ms}, {"verified", w.latency_n}, {"events", w.events}});
+      jw.push_back({{"from_min", w.from_min},
+                    {"to_min", w.to_min},
+                    {"rss_mb", w.rss_mb},
+                    {"keyframes", w.keyframes},
+                    {"threads", w.threads},
+                    {"fds", w.fds},
+                    {"p99_latency_ms", w.p99_ms},
+                    {"verified", w.latency_n},
+                    {"events", w.events}});
     nlohmann::json j{{"minutes", run_s / 60.0},
                      {"speed", speed},
                      {"drive", drive},

@@ -69,15 +69,17 @@ int run_bench_verify(int argc, char** argv) {
 
   std::vector<double> ms_fourpcs, ms_gicp, ms_hungarian, ms_total, cpu_total, ms_prepare, bytes;
   int correct = 0, true_accepted = 0, false_accepted = 0, loops = 0, misses = 0;
-  tools::Table rows({"candidate", "loop?", "decision", "stage", "LCP", "fitness", "residual", "degeneracy", "consistency", "err m/deg", "4PCS ms", "GICP ms",
-                     "total ms"});
+  tools::Table rows({"candidate", "loop?", "decision", "stage", "LCP", "fitness", "residual", "degeneracy", "consistency", "err m/deg", "4PCS ms",
+                     "GICP ms", "total ms"});
   tools::Progress prog("verifying", static_cast<std::int64_t>(cands.size()), !json);
   int done = 0;
   for (const auto& c : cands) {
     Stopwatch sw;
-    const PreparedScan q = prepare_scan(simulate_scan(*c.query_town, model, c.Tq, 31 + static_cast<std::uint64_t>(done), threads, c.visit_q), &model, prep);
+    const PreparedScan q =
+        prepare_scan(simulate_scan(*c.query_town, model, c.Tq, 31 + static_cast<std::uint64_t>(done), threads, c.visit_q), &model, prep);
     ms_prepare.push_back(sw.ms());
-    const PreparedScan m = prepare_scan(simulate_scan(*c.match_town, model, c.Tm, 77 + static_cast<std::uint64_t>(done), threads, c.visit_m), &model, prep);
+    const PreparedScan m =
+        prepare_scan(simulate_scan(*c.match_town, model, c.Tm, 77 + static_cast<std::uint64_t>(done), threads, c.visit_m), &model, prep);
     bytes.push_back(static_cast<double>(q.bytes()));
     const double c0 = cpu_ms();
     const VerifyResult r = verify(q, m, cfg);
@@ -95,9 +97,10 @@ int run_bench_verify(int argc, char** argv) {
     true_accepted += c.is_loop && good_accept ? 1 : 0;
     false_accepted += !c.is_loop && r.accepted ? 1 : 0;
     correct += (c.is_loop ? good_accept : !r.accepted) ? 1 : 0;
-    rows.add({c.name, c.is_loop ? "yes" : "no", r.accepted ? "accept" : "reject", to_string(r.stage), tools::fmt(r.lcp_fraction, 2), tools::fmt(r.icp_fitness, 2),
-              tools::fmt(r.icp_residual, 3), tools::fmt(r.degeneracy, 1), tools::fmt(r.hungarian_consistency, 2),
-              c.is_loop ? tools::fmt(te, 3) + "/" + tools::fmt(re, 2) : "-", tools::fmt(r.ms_fourpcs, 1), tools::fmt(r.ms_gicp, 1), tools::fmt(r.ms_total, 1)});
+    rows.add({c.name, c.is_loop ? "yes" : "no", r.accepted ? "accept" : "reject", to_string(r.stage), tools::fmt(r.lcp_fraction, 2),
+              tools::fmt(r.icp_fitness, 2), tools::fmt(r.icp_residual, 3), tools::fmt(r.degeneracy, 1), tools::fmt(r.hungarian_consistency, 2),
+              c.is_loop ? tools::fmt(te, 3) + "/" + tools::fmt(re, 2) : "-", tools::fmt(r.ms_fourpcs, 1), tools::fmt(r.ms_gicp, 1),
+              tools::fmt(r.ms_total, 1)});
     prog.update(++done);
   }
   prog.finish();
@@ -129,9 +132,9 @@ int run_bench_verify(int argc, char** argv) {
     return 0;
   }
   std::cout << rows.str() << "\n" << summary.str();
-  std::cout << "decisions: " << correct << "/" << cands.size() << " correct; true loops accepted within 0.2 m / 1 deg: " << true_accepted << "/" << loops
-            << "; near misses accepted: " << false_accepted << "/" << misses << "\n";
-  std::cout << "keyframe bytes (PreparedScan::bytes): median " << static_cast<long>(b.median) << ", max " << static_cast<long>(b.max) << "; " << threads
-            << " threads; 2 shared cores, so ms depend on machine load (total_cpu = process CPU time of verify)\n";
+  std::cout << "decisions: " << correct << "/" << cands.size() << " correct; true loops accepted within 0.2 m / 1 deg: " << true_accepted << "/"
+            << loops << "; near misses accepted: " << false_accepted << "/" << misses << "\n";
+  std::cout << "keyframe bytes (PreparedScan::bytes): median " << static_cast<long>(b.median) << ", max " << static_cast<long>(b.max) << "; "
+            << threads << " threads; 2 shared cores, so ms depend on machine load (total_cpu = process CPU time of verify)\n";
   return 0;
 }

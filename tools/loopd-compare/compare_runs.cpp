@@ -62,8 +62,8 @@ void common_pairs(const DecisionsByPair& a, const DecisionsByPair& b, DecisionCo
     const Eigen::Isometry3d& Ta = da.first_accepted->T_match_query;
     const Eigen::Isometry3d& Tb = db.first_accepted->T_match_query;
     out->max_loop_translation_diff_m = max_keeping_nan(out->max_loop_translation_diff_m, (Ta.translation() - Tb.translation()).norm());
-    out->max_loop_rotation_diff_deg = max_keeping_nan(
-        out->max_loop_rotation_diff_deg, rotation_difference_deg(Eigen::Quaterniond(Ta.linear()), Eigen::Quaterniond(Tb.linear())));
+    out->max_loop_rotation_diff_deg =
+        max_keeping_nan(out->max_loop_rotation_diff_deg, rotation_difference_deg(Eigen::Quaterniond(Ta.linear()), Eigen::Quaterniond(Tb.linear())));
   }
 }
 
@@ -87,9 +87,9 @@ TrajectoryComparison compare_trajectories(const RunLog& a, const RunLog& b) {
   out.revisions_b = b.revisions;
   out.last_revision_a = a.last_revision;
   out.last_revision_b = b.last_revision;
-  out.same_keyframe_ids = a.trajectory.size() == b.trajectory.size() &&
-                          std::equal(a.trajectory.begin(), a.trajectory.end(), b.trajectory.begin(),
-                                     [](const KeyframeRecord& x, const KeyframeRecord& y) { return x.id == y.id; });
+  out.same_keyframe_ids =
+      a.trajectory.size() == b.trajectory.size() && std::equal(a.trajectory.begin(), a.trajectory.end(), b.trajectory.begin(),
+                                                               [](const KeyframeRecord& x, const KeyframeRecord& y) { return x.id == y.id; });
   std::unordered_map<std::int64_t, const KeyframeRecord*> b_by_id;
   for (const auto& k : b.trajectory) b_by_id.emplace(k.id, &k);
   for (const auto& ka : a.trajectory) {
@@ -125,10 +125,10 @@ RunComparison compare_runs(const RunLog& a, const RunLog& b, const CompareTolera
   out.trajectory = compare_trajectories(a, b);
   const DecisionComparison& l = out.loops;
   const TrajectoryComparison& t = out.trajectory;
-  const bool same_decisions = l.events_a == l.events_b && l.accepted_only_a.empty() && l.accepted_only_b.empty() &&
-                              l.decisions_differ.empty() && l.decided_only_a.empty() && l.decided_only_b.empty();
-  const bool same_loops = within(l.max_loop_translation_diff_m, tolerances.translation_m) &&
-                          within(l.max_loop_rotation_diff_deg, tolerances.rotation_deg);
+  const bool same_decisions = l.events_a == l.events_b && l.accepted_only_a.empty() && l.accepted_only_b.empty() && l.decisions_differ.empty() &&
+                              l.decided_only_a.empty() && l.decided_only_b.empty();
+  const bool same_loops =
+      within(l.max_loop_translation_diff_m, tolerances.translation_m) && within(l.max_loop_rotation_diff_deg, tolerances.rotation_deg);
   const bool same_trajectory = t.same_keyframe_ids && t.revisions_a == t.revisions_b &&
                                within(t.max_pose_translation_diff_m, tolerances.translation_m) &&
                                within(t.max_pose_rotation_diff_deg, tolerances.rotation_deg);

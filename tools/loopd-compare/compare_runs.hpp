@@ -29,11 +29,11 @@ struct DecisionComparison {
   std::int64_t events_a = 0, events_b = 0;      ///< decoded loop events
   std::int64_t accepted_a = 0, accepted_b = 0;  ///< distinct accepted pairs
   std::int64_t accepted_both = 0;
-  std::vector<LoopPair> accepted_only_a, accepted_only_b;   ///< accepted in one run and not in the other, sorted
-  std::vector<DecisionDifference> decisions_differ;         ///< pairs both decided, differently, sorted by pair
-  std::vector<LoopPair> decided_only_a, decided_only_b;     ///< pairs (any status) only one run decided
-  double max_loop_translation_diff_m = 0;   ///< over pairs accepted in both: T_match_query translation
-  double max_loop_rotation_diff_deg = 0;    ///< ... and rotation
+  std::vector<LoopPair> accepted_only_a, accepted_only_b;  ///< accepted in one run and not in the other, sorted
+  std::vector<DecisionDifference> decisions_differ;        ///< pairs both decided, differently, sorted by pair
+  std::vector<LoopPair> decided_only_a, decided_only_b;    ///< pairs (any status) only one run decided
+  double max_loop_translation_diff_m = 0;                  ///< over pairs accepted in both: T_match_query translation
+  double max_loop_rotation_diff_deg = 0;                   ///< ... and rotation
 };
 
 /// @brief The last corrected trajectories of two runs side by side, keyframes matched by id.

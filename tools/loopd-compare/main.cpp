@@ -82,28 +82,46 @@ nlohmann::json result_json(const RunComparison& c, const RunLog& a, const RunLog
     const DecisionDifference& d = l.decisions_differ[i];
     differ.push_back({{"query_id", d.pair.first}, {"match_id", d.pair.second}, {"a", d.decisions_a}, {"b", d.decisions_b}});
   }
-  return {{"events_a", l.events_a}, {"events_b", l.events_b}, {"accepted_a", l.accepted_a}, {"accepted_b", l.accepted_b},
-          {"accepted_both", l.accepted_both}, {"accepted_only_a", l.accepted_only_a.size()},
-          {"accepted_only_b", l.accepted_only_b.size()}, {"accepted_only_a_pairs", pairs_json(l.accepted_only_a)},
-          {"accepted_only_b_pairs", pairs_json(l.accepted_only_b)}, {"decided_only_a", l.decided_only_a.size()},
-          {"decided_only_b", l.decided_only_b.size()}, {"decisions_differ", l.decisions_differ.size()},
-          {"decisions_differ_first", differ}, {"max_loop_translation_diff_m", l.max_loop_translation_diff_m},
-          {"max_loop_rotation_diff_deg", l.max_loop_rotation_diff_deg}, {"trajectory_revisions_a", t.revisions_a},
-          {"trajectory_revisions_b", t.revisions_b}, {"trajectory_last_revision_a", t.last_revision_a},
-          {"trajectory_last_revision_b", t.last_revision_b}, {"trajectory_keyframes_a", t.keyframes_a},
-          {"trajectory_keyframes_b", t.keyframes_b}, {"trajectory_keyframes_both", t.keyframes_both},
-          {"same_keyframe_ids", t.same_keyframe_ids}, {"max_pose_translation_diff_m", t.max_pose_translation_diff_m},
-          {"max_pose_rotation_diff_deg", t.max_pose_rotation_diff_deg}, {"malformed_a", a.malformed},
-          {"malformed_b", b.malformed}, {"problems_a", a.problems}, {"problems_b", b.problems},
-          {"tolerance_m", tol.translation_m}, {"tolerance_deg", tol.rotation_deg}, {"identical", c.identical}};
+  return {{"events_a", l.events_a},
+          {"events_b", l.events_b},
+          {"accepted_a", l.accepted_a},
+          {"accepted_b", l.accepted_b},
+          {"accepted_both", l.accepted_both},
+          {"accepted_only_a", l.accepted_only_a.size()},
+          {"accepted_only_b", l.accepted_only_b.size()},
+          {"accepted_only_a_pairs", pairs_json(l.accepted_only_a)},
+          {"accepted_only_b_pairs", pairs_json(l.accepted_only_b)},
+          {"decided_only_a", l.decided_only_a.size()},
+          {"decided_only_b", l.decided_only_b.size()},
+          {"decisions_differ", l.decisions_differ.size()},
+          {"decisions_differ_first", differ},
+          {"max_loop_translation_diff_m", l.max_loop_translation_diff_m},
+          {"max_loop_rotation_diff_deg", l.max_loop_rotation_diff_deg},
+          {"trajectory_revisions_a", t.revisions_a},
+          {"trajectory_revisions_b", t.revisions_b},
+          {"trajectory_last_revision_a", t.last_revision_a},
+          {"trajectory_last_revision_b", t.last_revision_b},
+          {"trajectory_keyframes_a", t.keyframes_a},
+          {"trajectory_keyframes_b", t.keyframes_b},
+          {"trajectory_keyframes_both", t.keyframes_both},
+          {"same_keyframe_ids", t.same_keyframe_ids},
+          {"max_pose_translation_diff_m", t.max_pose_translation_diff_m},
+          {"max_pose_rotation_diff_deg", t.max_pose_rotation_diff_deg},
+          {"malformed_a", a.malformed},
+          {"malformed_b", b.malformed},
+          {"problems_a", a.problems},
+          {"problems_b", b.problems},
+          {"tolerance_m", tol.translation_m},
+          {"tolerance_deg", tol.rotation_deg},
+          {"identical", c.identical}};
 }
 
 /// Damage a log reader skipped, on stderr: the comparison still runs on what could be read.
 void report_damage(const std::string& label, const RunLog& run) {
   if (!run.problems.empty()) std::cerr << "loopd-compare: warning: " << label << " " << run.problems << "\n";
   if (run.malformed > 0)
-    std::cerr << "loopd-compare: warning: " << label << " " << run.malformed << " loop/trajectory events did not decode, first: "
-              << run.first_malformed << "\n";
+    std::cerr << "loopd-compare: warning: " << label << " " << run.malformed
+              << " loop/trajectory events did not decode, first: " << run.first_malformed << "\n";
 }
 
 }  // namespace
@@ -142,8 +160,7 @@ int main(int argc, char** argv) {
   report_damage("B", b);
   const RunComparison c = compare_runs(a, b, tol);
   std::cout << "A: " << path_a << "\nB: " << path_b << "\n" << table_text(c) << details_text(c.loops);
-  std::cout << (c.identical ? "IDENTICAL" : "DIFFERENT") << " (tolerances " << sci(tol.translation_m) << " m, "
-            << sci(tol.rotation_deg) << " deg)\n";
+  std::cout << (c.identical ? "IDENTICAL" : "DIFFERENT") << " (tolerances " << sci(tol.translation_m) << " m, " << sci(tol.rotation_deg) << " deg)\n";
   if (json) print_json_line(result_json(c, a, b, tol));
   return c.identical ? kExitIdentical : kExitDifferent;
 }

@@ -80,8 +80,8 @@ bool read_run_log(const std::string& path, const CompareChannels& channels, RunL
   }
   if (run->decisions.empty() && run->revisions == 0 && run->malformed == 0) {
     if (error) {
-      *error = path + ": no '" + channels.loop_event + "' or '" + channels.trajectory + "' events in " +
-               std::to_string(run->events) + " LCM events (not a loopd output log?)";
+      *error = path + ": no '" + channels.loop_event + "' or '" + channels.trajectory + "' events in " + std::to_string(run->events) +
+               " LCM events (not a loopd output log?)";
       if (!run->problems.empty()) *error += "; " + run->problems;
     }
     return false;

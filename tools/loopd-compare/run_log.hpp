@@ -30,15 +30,15 @@ struct KeyframeRecord {
 
 /// @brief What loopd-compare takes from one loopd output log.
 struct RunLog {
-  std::vector<LoopDecision> decisions;      ///< every loop event, in log order
-  std::vector<KeyframeRecord> trajectory;   ///< the LAST corrected trajectory revision (partial messages applied on
-                                            ///< top of the last full one), oldest keyframe first
-  std::int64_t revisions = 0;               ///< corrected trajectory revisions in the log (a repeated revision counts once)
-  std::int64_t last_revision = -1;          ///< revision number of `trajectory`, -1 when there is none
-  std::int64_t events = 0;                  ///< LCM events read (all channels)
-  std::int64_t malformed = 0;               ///< loop / trajectory events that did not decode
-  std::string first_malformed;              ///< channel, event number and reason of the first of them
-  std::string problems;                     ///< LogReader's damage report, and an incomplete trajectory ("" when none)
+  std::vector<LoopDecision> decisions;     ///< every loop event, in log order
+  std::vector<KeyframeRecord> trajectory;  ///< the LAST corrected trajectory revision (partial messages applied on
+                                           ///< top of the last full one), oldest keyframe first
+  std::int64_t revisions = 0;              ///< corrected trajectory revisions in the log (a repeated revision counts once)
+  std::int64_t last_revision = -1;         ///< revision number of `trajectory`, -1 when there is none
+  std::int64_t events = 0;                 ///< LCM events read (all channels)
+  std::int64_t malformed = 0;              ///< loop / trajectory events that did not decode
+  std::string first_malformed;             ///< channel, event number and reason of the first of them
+  std::string problems;                    ///< LogReader's damage report, and an incomplete trajectory ("" when none)
 };
 
 /// @brief Reads loop decisions and the last corrected trajectory of a loopd output log with loopd's log reader and

@@ -27,8 +27,7 @@ int main(int argc, char** argv) {
   bool json = false;
   LoopCorrectorConfig config;
   app.add_option("--odometry", odometry_path, "odometry keyframe poses (KITTI: 12 numbers a line; TUM: t x y z qx qy qz qw)")->required();
-  app.add_option("--loops", loops_path, "loops, one a line: query_index match_index + 12 numbers of T_match_query (3x4 row-major)")
-      ->required();
+  app.add_option("--loops", loops_path, "loops, one a line: query_index match_index + 12 numbers of T_match_query (3x4 row-major)")->required();
   app.add_option("--out", out_path, "corrected poses, same format as --odometry")->required();
   app.add_option("--residuals", residuals_path, "scan-matching residual of the step ending at each pose, one a line (default: unknown)");
   app.add_option("--method", method_name, "heuristic | graph | heuristic+graph")->capture_default_str();
@@ -65,7 +64,8 @@ int main(int argc, char** argv) {
   }
 
   LoopCorrector corrector(config);
-  for (int i = 0; i < n; ++i) corrector.add_keyframe(odometry.poses[static_cast<std::size_t>(i)], residuals.empty() ? 0.0 : residuals[static_cast<std::size_t>(i)]);
+  for (int i = 0; i < n; ++i)
+    corrector.add_keyframe(odometry.poses[static_cast<std::size_t>(i)], residuals.empty() ? 0.0 : residuals[static_cast<std::size_t>(i)]);
   Stopwatch watch;
   const CorrectionResult result = corrector.add_loops(loops.loops);
   const double ms = watch.ms();

@@ -43,12 +43,19 @@ int main(int argc, char** argv) {
   }
   if (json) {
     std::vector<float> d(r.descriptor.data(), r.descriptor.data() + r.descriptor.size());
-    tools::print_json_line({{"descriptor", d}, {"ms", ms}, {"backend", to_string(r.backend)}, {"device", m2dp.device_name()},
-                            {"frame", frame_name}, {"points", r.num_points}, {"non_finite_removed", removed}, {"max_radius", r.max_radius}});
+    tools::print_json_line({{"descriptor", d},
+                            {"ms", ms},
+                            {"backend", to_string(r.backend)},
+                            {"device", m2dp.device_name()},
+                            {"frame", frame_name},
+                            {"points", r.num_points},
+                            {"non_finite_removed", removed},
+                            {"max_radius", r.max_radius}});
     return 0;
   }
   tools::Table t({"file", "points", "backend", "frame", "max radius m", "ms"});
-  t.add({file, std::to_string(r.num_points), to_string(r.backend) + " (" + m2dp.device_name() + ")", frame_name, tools::fmt(r.max_radius, 2), tools::fmt(ms)});
+  t.add({file, std::to_string(r.num_points), to_string(r.backend) + " (" + m2dp.device_name() + ")", frame_name, tools::fmt(r.max_radius, 2),
+         tools::fmt(ms)});
   std::cout << t.str() << "descriptor (first left singular vector, " << 64 << " values, then first right, 128 values):\n";
   for (int i = 0; i < r.descriptor.size(); ++i) std::cout << tools::fmt(r.descriptor(i), 5) << (i % 8 == 7 ? "\n" : " ");
   std::cout << "\n";

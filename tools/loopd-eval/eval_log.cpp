@@ -37,8 +37,8 @@ bool scan_utime(const LogEvent& ev, std::int64_t* utime) {
 
 }  // namespace
 
-bool read_drive_log(const std::string& path, const EvalChannels& ch, EvalInput* input, LogReadStats* stats,
-                    const ProgressFn& progress, std::string* error) {
+bool read_drive_log(const std::string& path, const EvalChannels& ch, EvalInput* input, LogReadStats* stats, const ProgressFn& progress,
+                    std::string* error) {
   LogReader reader;
   if (!reader.open(path, error)) return false;
   const std::int64_t total = file_bytes(path);
@@ -87,8 +87,8 @@ bool read_drive_log(const std::string& path, const EvalChannels& ch, EvalInput* 
   return true;
 }
 
-bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput* input, LogReadStats* stats,
-                      const ProgressFn& progress, std::string* error) {
+bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput* input, LogReadStats* stats, const ProgressFn& progress,
+                      std::string* error) {
   LogReader reader;
   if (!reader.open(path, error)) return false;
   const std::int64_t total = file_bytes(path);

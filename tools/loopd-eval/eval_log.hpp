@@ -28,11 +28,11 @@ using ProgressFn = std::function<void(std::int64_t, std::int64_t)>;
 
 /// @brief Reads ground truth, odometry and scan utimes of a drive log into `input`. Scan points are NOT decoded:
 ///        only the utime is taken from the encoded point_cloud_t (a real drive log is gigabytes).
-bool read_drive_log(const std::string& path, const EvalChannels& ch, EvalInput* input, LogReadStats* stats,
-                    const ProgressFn& progress, std::string* error);
+bool read_drive_log(const std::string& path, const EvalChannels& ch, EvalInput* input, LogReadStats* stats, const ProgressFn& progress,
+                    std::string* error);
 
 /// @brief Reads loopd's loop events and the LAST corrected trajectory revision into `input`.
-bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput* input, LogReadStats* stats,
-                      const ProgressFn& progress, std::string* error);
+bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput* input, LogReadStats* stats, const ProgressFn& progress,
+                      std::string* error);
 
 }  // namespace loopd::tools

@@ -14,9 +14,7 @@ using namespace loopd::tools;
 
 namespace {
 
-nlohmann::json timing_json(const TimingStats& t) {
-  return {{"median", t.median}, {"p95", t.p95}, {"max", t.max}, {"count", t.count}};
-}
+nlohmann::json timing_json(const TimingStats& t) { return {{"median", t.median}, {"p95", t.p95}, {"max", t.max}, {"count", t.count}}; }
 
 bool export_trajectories(const std::string& dir, const EvalReport& rep, bool kitti, std::string* error) {
   std::error_code ec;
@@ -27,8 +25,8 @@ bool export_trajectories(const std::string& dir, const EvalReport& rep, bool kit
   const std::string suffix = kitti ? ".kitti.txt" : ".tum";
   std::vector<double> seconds;  // TUM stamps [s]
   for (const std::int64_t utime : rep.keyframe_utimes) seconds.push_back(static_cast<double>(utime) * 1e-6);
-  for (const auto& [name, poses] : {std::pair{"ground_truth", &rep.gt_keyframes}, std::pair{"odometry", &rep.before_keyframes},
-                                    std::pair{"corrected", &rep.after_keyframes}}) {
+  for (const auto& [name, poses] :
+       {std::pair{"ground_truth", &rep.gt_keyframes}, std::pair{"odometry", &rep.before_keyframes}, std::pair{"corrected", &rep.after_keyframes}}) {
     const std::size_t n = std::min(poses->size(), kitti ? poses->size() : seconds.size());  // TUM: a line per stamp
     const std::vector<Eigen::Isometry3d> head(poses->begin(), poses->begin() + static_cast<std::ptrdiff_t>(n));
     if (auto e = write_trajectory(d + name + suffix, head, seconds, format)) {
@@ -47,26 +45,19 @@ int main(int argc, char** argv) {
   bool json = false, quiet = false;
   EvalConfig config;
   EvalChannels ch;
-  app.add_option("--drive", drive, "drive log (lcm-logger) with LIDAR_SCAN, ODOMETRY_POSE, GROUND_TRUTH_POSE")
-      ->required()
-      ->check(CLI::ExistingFile);
-  app.add_option("--results", results, "loopd's output log with LOOP_EVENT and CORRECTED_TRAJECTORY")
-      ->required()
-      ->check(CLI::ExistingFile);
+  app.add_option("--drive", drive, "drive log (lcm-logger) with LIDAR_SCAN, ODOMETRY_POSE, GROUND_TRUTH_POSE")->required()->check(CLI::ExistingFile);
+  app.add_option("--results", results, "loopd's output log with LOOP_EVENT and CORRECTED_TRAJECTORY")->required()->check(CLI::ExistingFile);
   app.add_flag("--json", json, "print one JSON object as the last stdout line");
   app.add_option("--plots", plots_dir, "write trajectories and PR-curve pictures (PNG + SVG) into this folder");
   app.add_option("--export-tum", tum_dir, "write ground truth, odometry and corrected keyframe trajectories (TUM)");
   app.add_option("--export-kitti", kitti_dir, "same in KITTI format (12 numbers a line)");
-  app.add_option("--loop-distance", config.ground_truth.max_distance, "[m] ground-truth loop: closer than this")
-      ->capture_default_str();
-  app.add_option("--min-frame-gap", config.ground_truth.min_frame_gap, "ground-truth loop: more than this many scans apart")
-      ->capture_default_str();
+  app.add_option("--loop-distance", config.ground_truth.max_distance, "[m] ground-truth loop: closer than this")->capture_default_str();
+  app.add_option("--min-frame-gap", config.ground_truth.min_frame_gap, "ground-truth loop: more than this many scans apart")->capture_default_str();
   app.add_flag("--planar", config.ground_truth.planar, "measure loop distances in the ground plane (x, y), not 3D");
   app.add_option("--closure-translation", config.closure_max_translation,
                  "[m] accepted loop correct when T_match_query is within this of ground truth")
       ->capture_default_str();
-  app.add_option("--closure-rotation", config.closure_max_rotation_deg, "[deg] ... and within this rotation")
-      ->capture_default_str();
+  app.add_option("--closure-rotation", config.closure_max_rotation_deg, "[deg] ... and within this rotation")->capture_default_str();
   app.add_option("--scan-channel", ch.scan)->capture_default_str();
   app.add_option("--odometry-channel", ch.odometry)->capture_default_str();
   app.add_option("--ground-truth-channel", ch.ground_truth)->capture_default_str();
@@ -124,14 +115,13 @@ int main(int argc, char** argv) {
 
   const auto& d = rep.detection;
   const auto& c = rep.closure;
-  std::cout << "drive:   " << drive_stats.scans << " scans, " << drive_stats.ground_truth << " ground-truth poses, "
-            << drive_stats.odometry << " odometry poses\n"
-            << "results: " << result_stats.loop_events << " loop events, " << result_stats.trajectories
-            << " trajectory revisions (using revision " << result_stats.trajectory_revision << ")\n"
-            << "keyframes evaluated: " << rep.keyframe_utimes.size() << "; ground-truth loops ("
-            << (config.ground_truth.planar ? "planar" : "3D") << " < " << fmt(config.ground_truth.max_distance, 2)
-            << " m, > " << config.ground_truth.min_frame_gap << " frames): " << d.gt_pairs << " pairs, "
-            << d.gt_queries << " query keyframes, " << c.stretches << " revisited stretches\n\n";
+  std::cout << "drive:   " << drive_stats.scans << " scans, " << drive_stats.ground_truth << " ground-truth poses, " << drive_stats.odometry
+            << " odometry poses\n"
+            << "results: " << result_stats.loop_events << " loop events, " << result_stats.trajectories << " trajectory revisions (using revision "
+            << result_stats.trajectory_revision << ")\n"
+            << "keyframes evaluated: " << rep.keyframe_utimes.size() << "; ground-truth loops (" << (config.ground_truth.planar ? "planar" : "3D")
+            << " < " << fmt(config.ground_truth.max_distance, 2) << " m, > " << config.ground_truth.min_frame_gap << " frames): " << d.gt_pairs
+            << " pairs, " << d.gt_queries << " query keyframes, " << c.stretches << " revisited stretches\n\n";
   Table det({"loop detection (accepted)", "value"});
   det.add({"true positives", std::to_string(d.true_positives)});
   det.add({"false positives", std::to_string(d.false_positives)});
@@ -148,8 +138,8 @@ int main(int argc, char** argv) {
   clo.add({"precision (correct / accepted)", fmt(c.precision)});
   clo.add({"recall (gt queries with accepted loop)", fmt(c.recall)});
   clo.add({"recall (correct loops only)", fmt(c.recall_correct)});
-  clo.add({"revisited stretches closed", std::to_string(c.stretches_closed) + " / " + std::to_string(c.stretches) +
-                                             " (" + fmt(100.0 * c.stretches_closed_share, 1) + " %)"});
+  clo.add({"revisited stretches closed",
+           std::to_string(c.stretches_closed) + " / " + std::to_string(c.stretches) + " (" + fmt(100.0 * c.stretches_closed_share, 1) + " %)"});
   std::cout << clo.str() << "\n";
   Table err({"pose error [m]", "before (odometry)", "after (corrected)"});
   err.add({"mean, closest gt pose", fmt(rep.error_before.mean), fmt(rep.error_after.mean)});
@@ -163,8 +153,7 @@ int main(int argc, char** argv) {
                                                                {"gicp", &rep.ms_gicp},
                                                                {"hungarian", &rep.ms_hungarian},
                                                                {"total", &rep.ms_total}};
-  for (const auto& [name, t] : stages)
-    tim.add({name, fmt(t->median, 1), fmt(t->p95, 1), fmt(t->max, 1), std::to_string(t->count)});
+  for (const auto& [name, t] : stages) tim.add({name, fmt(t->median, 1), fmt(t->p95, 1), fmt(t->max, 1), std::to_string(t->count)});
   std::cout << tim.str();
   for (const auto& p : pictures) std::cout << "picture: " << p << "\n";
   for (const auto& w : warnings) std::cout << "warning: " << w << "\n";

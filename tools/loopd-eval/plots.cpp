@@ -23,8 +23,7 @@ std::string quote(const std::string& s) { return "'" + s + "'"; }
 
 }  // namespace
 
-std::vector<std::string> write_plots(const std::string& dir, const EvalInput& input, const EvalReport& rep,
-                                     std::string* error) {
+std::vector<std::string> write_plots(const std::string& dir, const EvalInput& input, const EvalReport& rep, std::string* error) {
   std::vector<std::string> written;
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
@@ -42,8 +41,7 @@ std::vector<std::string> write_plots(const std::string& dir, const EvalInput& in
   {
     std::ofstream f(d + "revisits.dat");
     for (std::size_t i = 0; i < rep.gt_keyframes.size(); ++i)
-      if (rep.loop_ground_truth.revisit[i])
-        f << rep.gt_keyframes[i].translation().x() << ' ' << rep.gt_keyframes[i].translation().y() << '\n';
+      if (rep.loop_ground_truth.revisit[i]) f << rep.gt_keyframes[i].translation().x() << ' ' << rep.gt_keyframes[i].translation().y() << '\n';
   }
   // Accepted loops as segments between the two keyframes on the odometry ("before") trajectory: the length of a
   // segment is the drift the loop closes.
@@ -61,18 +59,15 @@ std::vector<std::string> write_plots(const std::string& dir, const EvalInput& in
     std::ofstream f(d + "pr_curve.dat");
     f << "# threshold precision recall true_positives false_positives\n";
     for (const auto& p : rep.detection.pr_curve)
-      f << p.threshold << ' ' << p.precision << ' ' << p.recall << ' ' << p.true_positives << ' ' << p.false_positives
-        << '\n';
+      f << p.threshold << ' ' << p.precision << ' ' << p.recall << ' ' << p.true_positives << ' ' << p.false_positives << '\n';
   }
 
   std::ostringstream traj_plot, pr_plot;
-  traj_plot << "reset\nset title 'Trajectories (top view): " << rep.closure.accepted << " accepted loops, "
-            << rep.closure.correct << " correct'\n"
+  traj_plot << "reset\nset title 'Trajectories (top view): " << rep.closure.accepted << " accepted loops, " << rep.closure.correct << " correct'\n"
             << "set xlabel 'x [m]'\nset ylabel 'y [m]'\nset size ratio -1\nset key outside right top\nset grid\n"
             << "plot " << quote(d + "ground_truth.dat") << " with lines lw 2 lc rgb '#202020' title 'ground truth'";
   if (file_nonempty(d + "revisits.dat"))
-    traj_plot << ", " << quote(d + "revisits.dat")
-              << " with points pt 7 ps 0.5 lc rgb '#33aa33' title 'revisited (ground truth)'";
+    traj_plot << ", " << quote(d + "revisits.dat") << " with points pt 7 ps 0.5 lc rgb '#33aa33' title 'revisited (ground truth)'";
   traj_plot << ", " << quote(d + "odometry.dat") << " with lines lw 1.5 lc rgb '#3060d0' title 'odometry (before)'";
   if (rep.has_corrected)  // without a correction "after" is the odometry and would hide it
     traj_plot << ", " << quote(d + "corrected.dat") << " with lines lw 1.5 lc rgb '#e08000' title 'corrected (after)'";
@@ -84,8 +79,7 @@ std::vector<std::string> write_plots(const std::string& dir, const EvalInput& in
 
   const bool have_pr = !rep.detection.pr_curve.empty();
   if (have_pr) {
-    pr_plot << "reset\nset title sprintf('Precision-recall over the descriptor threshold (F1 max %.3f)', "
-            << rep.detection.f1_max << ")\n"
+    pr_plot << "reset\nset title sprintf('Precision-recall over the descriptor threshold (F1 max %.3f)', " << rep.detection.f1_max << ")\n"
             << "set xlabel 'recall'\nset ylabel 'precision'\nset xrange [0:1.02]\nset yrange [0:1.02]\nset grid\n"
             << "set key inside left bottom box opaque\n"
             << "plot " << quote(d + "pr_curve.dat") << " using 3:2 with linespoints pt 7 ps 0.6 lw 2 lc rgb '#3060d0' "
@@ -99,8 +93,7 @@ std::vector<std::string> write_plots(const std::string& dir, const EvalInput& in
     gp << "set terminal " << png_term << " size 1200,900\n";
     gp << "set output " << quote(d + "trajectories.png") << "\n" << traj_plot.str();
     if (have_pr) gp << "set terminal " << png_term << " size 900,800\nset output " << quote(d + "pr_curve.png") << "\n" << pr_plot.str();
-    gp << "set terminal svg size 1200,900 dynamic\nset output " << quote(d + "trajectories.svg") << "\n"
-       << traj_plot.str();
+    gp << "set terminal svg size 1200,900 dynamic\nset output " << quote(d + "trajectories.svg") << "\n" << traj_plot.str();
     if (have_pr) gp << "set terminal svg size 900,800 dynamic\nset output " << quote(d + "pr_curve.svg") << "\n" << pr_plot.str();
     gp << "unset output\n";
     gp.close();

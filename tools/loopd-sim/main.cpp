@@ -24,8 +24,12 @@ int list_sensors(bool json) {
     table.add({m.name, std::to_string(m.num_rings), fmt(m.vertical_angles_deg.front(), 2) + ".." + fmt(m.vertical_angles_deg.back(), 2),
                std::to_string(m.azimuth_steps), fmt(m.azimuth_step_deg(), 4), fmt(m.min_range, 1) + ".." + fmt(m.max_range, 0),
                fmt(m.range_noise_sigma, 3), fmt(m.dropout_rate, 3)});
-    arr.push_back({{"name", m.name}, {"num_rings", m.num_rings}, {"azimuth_steps", m.azimuth_steps}, {"min_range", m.min_range},
-                   {"max_range", m.max_range}, {"vertical_angles_deg", m.vertical_angles_deg}});
+    arr.push_back({{"name", m.name},
+                   {"num_rings", m.num_rings},
+                   {"azimuth_steps", m.azimuth_steps},
+                   {"min_range", m.min_range},
+                   {"max_range", m.max_range},
+                   {"vertical_angles_deg", m.vertical_angles_deg}});
   }
   std::cout << table.str();
   if (json) loopd::tools::print_json_line({{"sensors", arr}});
@@ -44,7 +48,8 @@ int main(int argc, char** argv) {
   app.add_option("--sensor", cfg.sensor, "lidar model (see --list-sensors)")->capture_default_str();
   app.add_option("--scans", cfg.num_scans, "number of scans")->capture_default_str();
   app.add_option("--seed", cfg.seed, "town / noise / drift seed")->capture_default_str();
-  app.add_option("--route", cfg.route, "route: town (three visits: block loop, long loop with lane offset, opposite direction) or block (the block loop, lap after lap)")
+  app.add_option("--route", cfg.route,
+                 "route: town (three visits: block loop, long loop with lane offset, opposite direction) or block (the block loop, lap after lap)")
       ->capture_default_str();
   app.add_option("--speed", cfg.speed, "vehicle speed [m/s]")->capture_default_str();
   app.add_option("--rate", cfg.rate_hz, "scan rate [Hz]")->capture_default_str();

@@ -87,13 +87,21 @@ int main(int argc, char** argv) {
     j["stage"] = to_string(r.stage);
     j["reason"] = r.reason;
     j["T_match_query"] = std::vector<double>(T, T + 16);
-    j["scores"] = {{"lcp_fraction", r.lcp_fraction},         {"icp_residual", r.icp_residual}, {"icp_fitness", r.icp_fitness},
-                   {"degeneracy", json_number(r.degeneracy)}, {"degenerate", r.degenerate},     {"hungarian_consistency", r.hungarian_consistency},
-                   {"icp_iterations", r.icp_iterations},     {"icp_converged", r.icp_converged}, {"clusters_query", r.clusters_query},
-                   {"clusters_match", r.clusters_match},     {"clusters_matched", r.clusters_matched}};
+    j["scores"] = {{"lcp_fraction", r.lcp_fraction},
+                   {"icp_residual", r.icp_residual},
+                   {"icp_fitness", r.icp_fitness},
+                   {"degeneracy", json_number(r.degeneracy)},
+                   {"degenerate", r.degenerate},
+                   {"hungarian_consistency", r.hungarian_consistency},
+                   {"icp_iterations", r.icp_iterations},
+                   {"icp_converged", r.icp_converged},
+                   {"clusters_query", r.clusters_query},
+                   {"clusters_match", r.clusters_match},
+                   {"clusters_matched", r.clusters_matched}};
     // Top-level copies of the scores for flat consumers.
     for (const auto& [k, v] : j["scores"].items()) j[k] = v;
-    j["ms"] = {{"fourpcs", r.ms_fourpcs}, {"gicp", r.ms_gicp}, {"hungarian", r.ms_hungarian}, {"total", r.ms_total},
+    j["ms"] = {{"fourpcs", r.ms_fourpcs},         {"gicp", r.ms_gicp},
+               {"hungarian", r.ms_hungarian},     {"total", r.ms_total},
                {"prepare_query", query.ms_total}, {"prepare_match", match.ms_total}};
     std::vector<double> info(r.information.data(), r.information.data() + 36);  // (t, r) order, core/information.hpp
     j["information"] = info;
@@ -120,7 +128,10 @@ int main(int argc, char** argv) {
   ms.add({"Hungarian", tools::fmt(r.ms_hungarian, 2)});
   ms.add({"verify total", tools::fmt(r.ms_total, 1)});
   std::cout << ms.str() << "\nT_match_query:\n";
-  for (int i = 0; i < 4; ++i) std::cout << "  " << tools::fmt(T[4 * i], 5) << " " << tools::fmt(T[4 * i + 1], 5) << " " << tools::fmt(T[4 * i + 2], 5) << " " << tools::fmt(T[4 * i + 3], 4) << "\n";
-  std::cout << "points: query " << query.points.size() << ", match " << match.points.size() << "; keyframe bytes: " << query.bytes() << ", " << match.bytes() << "\n";
+  for (int i = 0; i < 4; ++i)
+    std::cout << "  " << tools::fmt(T[4 * i], 5) << " " << tools::fmt(T[4 * i + 1], 5) << " " << tools::fmt(T[4 * i + 2], 5) << " "
+              << tools::fmt(T[4 * i + 3], 4) << "\n";
+  std::cout << "points: query " << query.points.size() << ", match " << match.points.size() << "; keyframe bytes: " << query.bytes() << ", "
+            << match.bytes() << "\n";
   return 0;
 }

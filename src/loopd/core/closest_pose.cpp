@@ -6,8 +6,7 @@
 
 namespace loopd {
 
-std::vector<double> closest_pose_errors(const std::vector<Eigen::Vector3d>& estimate,
-                                        const std::vector<Eigen::Vector3d>& ground_truth) {
+std::vector<double> closest_pose_errors(const std::vector<Eigen::Vector3d>& estimate, const std::vector<Eigen::Vector3d>& ground_truth) {
   std::vector<double> out;
   out.reserve(estimate.size());
   if (ground_truth.empty()) return out;
@@ -15,8 +14,7 @@ std::vector<double> closest_pose_errors(const std::vector<Eigen::Vector3d>& esti
   std::vector<Eigen::Vector3d> gt = ground_truth;
   std::sort(gt.begin(), gt.end(), [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return a.x() < b.x(); });
   for (const auto& p : estimate) {
-    const auto it = std::lower_bound(gt.begin(), gt.end(), p.x(),
-                                     [](const Eigen::Vector3d& g, double x) { return g.x() < x; });
+    const auto it = std::lower_bound(gt.begin(), gt.end(), p.x(), [](const Eigen::Vector3d& g, double x) { return g.x() < x; });
     double best2 = std::numeric_limits<double>::infinity();
     for (auto f = it; f != gt.end(); ++f) {
       const double dx = f->x() - p.x();

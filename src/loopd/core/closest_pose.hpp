@@ -9,7 +9,6 @@ namespace loopd {
 ///        Table 4: "the average distance from all poses in the estimated trajectory with its closest pose in the
 ///        ground truth"). No alignment is applied here; the ground truth may be denser than the estimate. Exact
 ///        (double precision); empty when the ground truth is empty.
-std::vector<double> closest_pose_errors(const std::vector<Eigen::Vector3d>& estimate,
-                                        const std::vector<Eigen::Vector3d>& ground_truth);
+std::vector<double> closest_pose_errors(const std::vector<Eigen::Vector3d>& estimate, const std::vector<Eigen::Vector3d>& ground_truth);
 
 }  // namespace loopd

@@ -7,9 +7,9 @@ namespace loopd {
 
 /// @brief An odometry pose T_world_sensor at a time.
 struct StampedPose {
-  std::int64_t utime = 0;            ///< [us]
+  std::int64_t utime = 0;  ///< [us]
   Eigen::Isometry3d T_world_sensor = Eigen::Isometry3d::Identity();
-  double residual = 0.0;             ///< scan-matching residual of the step ending here [m]; 0 when unknown
+  double residual = 0.0;  ///< scan-matching residual of the step ending here [m]; 0 when unknown
 };
 
 /// @brief Interpolates between two poses: translation linearly, rotation by slerp. alpha in [0, 1].

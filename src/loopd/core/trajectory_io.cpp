@@ -43,9 +43,8 @@ std::optional<TrajectoryFormat> trajectory_format_from_string(const std::string&
 
 TrajectoryFile parse_trajectory(std::istream& in, TrajectoryFormat format, const std::string& source) {
   TrajectoryFile f;
-  const auto error = text::for_each_number_line(in, source, [&](const std::vector<double>& v) {
-    return format == TrajectoryFormat::kKitti ? add_kitti_pose(v, &f) : add_tum_pose(v, &f);
-  });
+  const auto error = text::for_each_number_line(
+      in, source, [&](const std::vector<double>& v) { return format == TrajectoryFormat::kKitti ? add_kitti_pose(v, &f) : add_tum_pose(v, &f); });
   if (error) {
     f.error = *error;
   } else if (f.poses.empty()) {
@@ -66,8 +65,8 @@ TrajectoryFile read_trajectory(const std::string& path, TrajectoryFormat format)
   return parse_trajectory(in, format, path);
 }
 
-std::optional<std::string> write_trajectory(const std::string& path, const std::vector<Eigen::Isometry3d>& poses,
-                                            const std::vector<double>& stamps, TrajectoryFormat format) {
+std::optional<std::string> write_trajectory(const std::string& path, const std::vector<Eigen::Isometry3d>& poses, const std::vector<double>& stamps,
+                                            TrajectoryFormat format) {
   std::ofstream out(path);
   if (!out) return path + ": cannot open for writing";
   out << std::setprecision(9);

@@ -35,7 +35,7 @@ TrajectoryFile read_trajectory(const std::string& path, TrajectoryFormat format)
 
 /// @brief Writes poses (TUM: with stamps [s], or the index when stamps are missing; KITTI: stamps unused).
 /// @return std::nullopt, or "<path>: cannot open for writing" / "<path>: write failed".
-std::optional<std::string> write_trajectory(const std::string& path, const std::vector<Eigen::Isometry3d>& poses,
-                                            const std::vector<double>& stamps, TrajectoryFormat format);
+std::optional<std::string> write_trajectory(const std::string& path, const std::vector<Eigen::Isometry3d>& poses, const std::vector<double>& stamps,
+                                            TrajectoryFormat format);
 
 }  // namespace loopd

@@ -61,10 +61,10 @@ std::vector<double> edge_weights(const std::vector<Eigen::Isometry3d>& poses, co
 
 /// @brief Outcome of one heuristic correction (for diagnostics).
 struct HeuristicCorrectionResult {
-  bool applied = false;      ///< false for a zero-length loop or indices out of range (poses unchanged)
-  std::string reason;        ///< why not applied
-  PoseIndex start_index = -1;  ///< s = min(query, match)
-  PoseIndex end_index = -1;    ///< e = max(query, match)
+  bool applied = false;               ///< false for a zero-length loop or indices out of range (poses unchanged)
+  std::string reason;                 ///< why not applied
+  PoseIndex start_index = -1;         ///< s = min(query, match)
+  PoseIndex end_index = -1;           ///< e = max(query, match)
   double correction_translation = 0;  ///< [m] translation of the loop error at V_e
   double correction_rotation = 0;     ///< [rad] rotation of the loop error
 };

@@ -100,15 +100,17 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
 
   Stopwatch watch;
   std::tie(r.start_translation_error, r.start_rotation_error) = loop_end_error(corrected_, loop);
-  const bool far_off = r.start_translation_error > config_.graph_now_translation ||
-                       r.start_rotation_error > config_.graph_now_rotation_deg * kDegToRad;
+  const bool far_off =
+      r.start_translation_error > config_.graph_now_translation || r.start_rotation_error > config_.graph_now_rotation_deg * kDegToRad;
   const int interval = std::max(config_.graph_interval, static_cast<int>(config_.graph_interval_fraction * static_cast<double>(odometry_.size())));
   const bool graph_due = last_graph_index_ < 0 || e - last_graph_index_ >= interval || far_off;
   // Online case: apply the new loop to the current corrected state; closed spans keep earlier loops closed.
   std::vector<Eigen::Isometry3d> warm = corrected_;
   const std::vector<double> base = edge_weights(odometry_, residuals_, config_.heuristic);
-  if (config_.method != CorrectionMethod::kGraph) apply_heuristic_with_spans(warm, base, loop, closed_spans_, config_.heuristic);
-  else closed_spans_.emplace_back(std::min(loop.query_index, loop.match_index), e);
+  if (config_.method != CorrectionMethod::kGraph)
+    apply_heuristic_with_spans(warm, base, loop, closed_spans_, config_.heuristic);
+  else
+    closed_spans_.emplace_back(std::min(loop.query_index, loop.match_index), e);
   r.ms_heuristic = watch.ms();
   if (config_.method == CorrectionMethod::kHeuristic) {
     corrected_ = std::move(warm);

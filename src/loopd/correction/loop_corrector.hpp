@@ -33,26 +33,26 @@ struct LoopCorrectorConfig {
   /// solved at once. 1 and 0: solve on every loop.
   int graph_interval = 5;
   double graph_interval_fraction = 0.02;
-  double graph_now_translation = 1.0;  ///< [m]
-  double graph_now_rotation_deg = 3.0; ///< [deg]
+  double graph_now_translation = 1.0;   ///< [m]
+  double graph_now_rotation_deg = 3.0;  ///< [deg]
   std::optional<std::string> validate() const;
 };
 
 /// @brief What one re-correction did.
 struct CorrectionResult {
   bool ok = false;
-  std::string reason;            ///< why not ok, or solver message
+  std::string reason;  ///< why not ok, or solver message
   CorrectionMethod method = CorrectionMethod::kHeuristic;
-  int num_loops = 0;             ///< loops in the graph
-  double ms_heuristic = 0;       ///< [ms]
-  double ms_graph = 0;           ///< [ms]
+  int num_loops = 0;        ///< loops in the graph
+  double ms_heuristic = 0;  ///< [ms]
+  double ms_graph = 0;      ///< [ms]
   int graph_iterations = 0;
   bool graph_converged = false;
-  bool graph_deferred = false;   ///< heuristic+graph: closed by the heuristic, the graph waits (graph_interval)
+  bool graph_deferred = false;         ///< heuristic+graph: closed by the heuristic, the graph waits (graph_interval)
   double start_translation_error = 0;  ///< [m] loop-end mismatch of the new loop before correction
   double start_rotation_error = 0;     ///< [rad]
-  double end_translation_error = 0;  ///< [m] loop-end mismatch of the new loop after correction
-  double end_rotation_error = 0;     ///< [rad]
+  double end_translation_error = 0;    ///< [m] loop-end mismatch of the new loop after correction
+  double end_rotation_error = 0;       ///< [rad]
 };
 
 /// @brief What a LoopCorrector needs, besides its keyframes, loops and corrected poses, to continue exactly where it

@@ -30,9 +30,9 @@ namespace {
 
 using detail::GraphEdge;
 using detail::in_range;
+using detail::Matrix6d;
 using detail::NodeLayout;
 using detail::to_node;
-using detail::Matrix6d;
 using detail::Vector6d;
 
 Matrix6d diagonal_sqrt_info(double sigma_t, double sigma_r) {
@@ -43,8 +43,7 @@ Matrix6d diagonal_sqrt_info(double sigma_t, double sigma_r) {
 
 /// Loop information -> square root, with the GICP Hessian's scale capped (see PoseGraphConfig).
 Matrix6d loop_sqrt_info(const Matrix6d& information, const PoseGraphConfig& config) {
-  if (information.isZero(0.0) || !information.allFinite())
-    return diagonal_sqrt_info(config.loop_translation_sigma, config.loop_rotation_sigma);
+  if (information.isZero(0.0) || !information.allFinite()) return diagonal_sqrt_info(config.loop_translation_sigma, config.loop_rotation_sigma);
   const Matrix6d sym = 0.5 * (information + information.transpose());
   Eigen::SelfAdjointEigenSolver<Matrix6d> es(sym);
   Vector6d lambda = es.eigenvalues();
@@ -139,8 +138,8 @@ void add_odometry_chain_edges(const std::vector<Eigen::Isometry3d>& odometry_pos
 }
 
 /// @brief One robust edge per loop between the nodes of its ends (none when both ends share a node).
-void add_loop_edges(const std::vector<const LoopConstraint*>& loops, const std::vector<Eigen::Isometry3d>& odometry_poses,
-                    const NodeLayout& layout, const PoseGraphConfig& config, std::vector<GraphEdge>& edges) {
+void add_loop_edges(const std::vector<const LoopConstraint*>& loops, const std::vector<Eigen::Isometry3d>& odometry_poses, const NodeLayout& layout,
+                    const PoseGraphConfig& config, std::vector<GraphEdge>& edges) {
   for (const LoopConstraint* l : loops) {
     const auto m = static_cast<std::size_t>(l->match_index), q = static_cast<std::size_t>(l->query_index);
     GraphEdge e;

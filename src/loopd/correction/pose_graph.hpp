@@ -16,8 +16,8 @@ enum class RobustLoss { kNone, kHuber, kCauchy };
 /// n . x + d = 0 for points x on the plane, |n| = 1. All observations with the same plane_id constrain one plane
 /// node (a unit normal + offset in the world frame, optimised together with the poses).
 struct PlaneObservation {
-  PoseIndex index = -1;                                    ///< position of the keyframe in the pose sequence
-  int plane_id = 0;                                        ///< plane node this observation belongs to
+  PoseIndex index = -1;                                        ///< position of the keyframe in the pose sequence
+  int plane_id = 0;                                            ///< plane node this observation belongs to
   Eigen::Vector4d plane_sensor = Eigen::Vector4d(0, 0, 1, 0);  ///< (n, d) in the sensor frame
 };
 
@@ -82,8 +82,8 @@ struct PoseGraphResult {
   bool converged = false;
   int iterations = 0;
   double initial_cost = 0, final_cost = 0;
-  double ms = 0;             ///< [ms] wall time of build + solve
-  std::string message;       ///< solver summary line or the reason for failure
+  double ms = 0;                        ///< [ms] wall time of build + solve
+  std::string message;                  ///< solver summary line or the reason for failure
   std::vector<Eigen::Vector4d> planes;  ///< optimised plane nodes (world frame), by plane_id
 };
 

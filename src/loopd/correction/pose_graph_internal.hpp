@@ -20,8 +20,8 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 struct GraphEdge {
   int a = 0, b = 0;
   Eigen::Isometry3d Z = Eigen::Isometry3d::Identity();  ///< measured T_a_b
-  Matrix6d sqrt_info = Matrix6d::Identity();           ///< square root of the information, (t, r) order
-  bool robust = false;                                 ///< a loop edge: gets the robust kernel
+  Matrix6d sqrt_info = Matrix6d::Identity();            ///< square root of the information, (t, r) order
+  bool robust = false;                                  ///< a loop edge: gets the robust kernel
 };
 
 /// @brief Whether `index` (a keyframe position) names one of `n` poses.

@@ -76,8 +76,7 @@ NodeLayout choose_nodes(std::size_t n, const std::vector<const LoopConstraint*>&
 
 /// @brief Odometry from keyframe i to its node (identity for a node).
 Eigen::Isometry3d to_node(const std::vector<Eigen::Isometry3d>& odometry_poses, const NodeLayout& layout, std::size_t i) {
-  return odometry_poses[i].inverse() *
-         odometry_poses[static_cast<std::size_t>(layout.anchors[static_cast<std::size_t>(layout.nearest_node[i])])];
+  return odometry_poses[i].inverse() * odometry_poses[static_cast<std::size_t>(layout.anchors[static_cast<std::size_t>(layout.nearest_node[i])])];
 }
 
 }  // namespace detail

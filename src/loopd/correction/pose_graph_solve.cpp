@@ -127,7 +127,8 @@ PlaneNodes init_plane_nodes(const std::vector<Eigen::Isometry3d>& poses, const s
     const Eigen::Isometry3d& T = poses[static_cast<std::size_t>(o.index)];
     const Eigen::Vector3d n_w = (T.linear() * o.plane_sensor.head<3>()).normalized();
     nodes.slot[o.plane_id] = nodes.storage.size() / 4;
-    nodes.storage.insert(nodes.storage.end(), {n_w.x(), n_w.y(), n_w.z(), o.plane_sensor[3] / o.plane_sensor.head<3>().norm() - n_w.dot(T.translation())});
+    nodes.storage.insert(nodes.storage.end(),
+                         {n_w.x(), n_w.y(), n_w.z(), o.plane_sensor[3] / o.plane_sensor.head<3>().norm() - n_w.dot(T.translation())});
   }
   return nodes;
 }
@@ -141,8 +142,8 @@ void add_plane_residuals(ceres::Problem& problem, const std::vector<PlaneObserva
     const std::size_t s = nodes.slot.at(o.plane_id);
     const Eigen::Vector4d obs = o.plane_sensor / o.plane_sensor.head<3>().norm();
     const auto i = static_cast<std::size_t>(o.index);
-    problem.AddResidualBlock(PlaneError::create(obs, config.plane_normal_sigma, config.plane_distance_sigma), nullptr, &x.p[3 * i],
-                             &x.q[4 * i], &nodes.storage[4 * s], &nodes.storage[4 * s + 3]);
+    problem.AddResidualBlock(PlaneError::create(obs, config.plane_normal_sigma, config.plane_distance_sigma), nullptr, &x.p[3 * i], &x.q[4 * i],
+                             &nodes.storage[4 * s], &nodes.storage[4 * s + 3]);
   }
   for (std::size_t s = 0; s < nodes.slot.size(); ++s) problem.SetManifold(&nodes.storage[4 * s], &sphere_manifold);
 }

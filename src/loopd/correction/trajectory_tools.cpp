@@ -36,8 +36,8 @@ TrajectoryError trajectory_error(const std::vector<Eigen::Isometry3d>& estimate,
 std::pair<double, double> loop_end_error(const std::vector<Eigen::Isometry3d>& poses, const LoopConstraint& loop) {
   const int n = static_cast<int>(poses.size());
   if (loop.query_index < 0 || loop.match_index < 0 || loop.query_index >= n || loop.match_index >= n) return {0.0, 0.0};
-  const Eigen::Isometry3d E = (poses[static_cast<std::size_t>(loop.match_index)] * loop.T_match_query).inverse() *
-                              poses[static_cast<std::size_t>(loop.query_index)];
+  const Eigen::Isometry3d E =
+      (poses[static_cast<std::size_t>(loop.match_index)] * loop.T_match_query).inverse() * poses[static_cast<std::size_t>(loop.query_index)];
   const double c = std::clamp((E.linear().trace() - 1.0) * 0.5, -1.0, 1.0);
   return {E.translation().norm(), std::acos(c)};
 }
@@ -62,8 +62,7 @@ DriftedTrajectory inject_drift(const std::vector<Eigen::Isometry3d>& gt, const D
     const double tilt1 = config.tilt_noise * sq * normal(rng), tilt2 = config.tilt_noise * sq * normal(rng);
     const Eigen::Vector3d t_noise(config.translation_noise * sq * normal(rng), config.translation_noise * sq * normal(rng),
                                   config.translation_noise * sq * normal(rng));
-    const Eigen::Matrix3d R_err =
-        (Eigen::AngleAxisd(yaw, up) * Eigen::AngleAxisd(tilt1, a1) * Eigen::AngleAxisd(tilt2, a2)).toRotationMatrix();
+    const Eigen::Matrix3d R_err = (Eigen::AngleAxisd(yaw, up) * Eigen::AngleAxisd(tilt1, a1) * Eigen::AngleAxisd(tilt2, a2)).toRotationMatrix();
     Eigen::Isometry3d Zd = Z;
     Zd.translation() = (1.0 + config.scale_bias) * Z.translation() + t_noise;
     Zd.linear() = Z.linear() * R_err;

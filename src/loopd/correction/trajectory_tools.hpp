@@ -25,11 +25,11 @@ std::pair<double, double> loop_end_error(const std::vector<Eigen::Isometry3d>& p
 
 /// @brief Drift injected into a ground-truth trajectory, step by step (odometry-like).
 struct DriftConfig {
-  double heading_bias = 0.0005;   ///< [rad/m] yaw added per metre travelled (about up_axis of the sensor frame)
-  double scale_bias = 0.01;       ///< relative error of every step length
-  double heading_noise = 0.0005;  ///< [rad/sqrt(m)] random-walk yaw noise
-  double tilt_noise = 0.0002;     ///< [rad/sqrt(m)] random-walk roll/pitch noise
-  double translation_noise = 0.005;  ///< [m/sqrt(m)] per-step translation noise
+  double heading_bias = 0.0005;                        ///< [rad/m] yaw added per metre travelled (about up_axis of the sensor frame)
+  double scale_bias = 0.01;                            ///< relative error of every step length
+  double heading_noise = 0.0005;                       ///< [rad/sqrt(m)] random-walk yaw noise
+  double tilt_noise = 0.0002;                          ///< [rad/sqrt(m)] random-walk roll/pitch noise
+  double translation_noise = 0.005;                    ///< [m/sqrt(m)] per-step translation noise
   Eigen::Vector3d up_axis = Eigen::Vector3d::UnitZ();  ///< sensor up axis (KITTI camera poses: -UnitY())
   std::uint64_t seed = 42;
 };

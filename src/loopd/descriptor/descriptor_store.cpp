@@ -23,9 +23,9 @@ constexpr float kBoundSlack = 1e-4f;
 
 /// Integer dot products of the 8-bit query with the 8-bit rows (exact in int32: |sum| <= dim * 127^2): a plain loop
 /// that vectorises to widening multiply-adds; target_clones adds an AVX2 variant beside the SSE2 baseline.
-LOOPD_TARGET_CLONES("avx2", "default") void coarse_dots(const std::int8_t* __restrict q, const std::int8_t* __restrict rows, int qdim,
-                                                        std::int64_t begin, std::int64_t end, const std::uint8_t* __restrict mask,
-                                                        std::int32_t* __restrict dots) {
+LOOPD_TARGET_CLONES("avx2", "default")
+void coarse_dots(const std::int8_t* __restrict q, const std::int8_t* __restrict rows, int qdim, std::int64_t begin, std::int64_t end,
+                 const std::uint8_t* __restrict mask, std::int32_t* __restrict dots) {
   for (std::int64_t r = begin; r < end; ++r) {
     if (!mask[r]) continue;
     const std::int8_t* x = rows + r * qdim;

@@ -23,9 +23,12 @@ constexpr double kMinEigenRatio = 1e-8;
 
 std::string to_string(Backend backend) {
   switch (backend) {
-    case Backend::kCpu: return "cpu";
-    case Backend::kOpenCl: return "opencl";
-    case Backend::kAuto: return "auto";
+    case Backend::kCpu:
+      return "cpu";
+    case Backend::kOpenCl:
+      return "opencl";
+    case Backend::kAuto:
+      return "auto";
   }
   return "?";
 }
@@ -85,8 +88,7 @@ Eigen::Matrix3d frame_axes(const Eigen::Matrix3d& covariance, M2dpFrame frame) {
   return axes;
 }
 
-Frame finish_frame(const FirstMoments& first, const Eigen::Matrix3d& pca, const Eigen::Matrix3d& sign_axes, const SecondMoments& s,
-                   M2dpFrame frame) {
+Frame finish_frame(const FirstMoments& first, const Eigen::Matrix3d& pca, const Eigen::Matrix3d& sign_axes, const SecondMoments& s, M2dpFrame frame) {
   Frame out;
   if (!std::isfinite(s.max_r2) || !s.second.allFinite() || !s.third.allFinite() || !s.first.allFinite()) {
     out.error = "non-finite moments (NaN/Inf coordinates)";
@@ -167,7 +169,8 @@ void descriptor_from_signature(const std::vector<std::uint32_t>& signature, cons
   const int rows = config.num_planes(), cols = config.num_bins();
   Eigen::MatrixXd A(rows, cols);
   for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c) A(r, c) = static_cast<double>(signature[static_cast<std::size_t>(r) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(c)]);
+    for (int c = 0; c < cols; ++c)
+      A(r, c) = static_cast<double>(signature[static_cast<std::size_t>(r) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(c)]);
   if (A.sum() <= 0) {
     result->ok = false;
     result->error = "empty signature matrix";
@@ -210,8 +213,7 @@ int binning_stride(std::size_t num_points, int max_points) {
   return static_cast<int>((num_points + static_cast<std::size_t>(max_points) - 1) / static_cast<std::size_t>(max_points));
 }
 
-const std::vector<Eigen::Vector3f>& subsample(const std::vector<Eigen::Vector3f>& points, int max_points,
-                                              std::vector<Eigen::Vector3f>* storage) {
+const std::vector<Eigen::Vector3f>& subsample(const std::vector<Eigen::Vector3f>& points, int max_points, std::vector<Eigen::Vector3f>* storage) {
   if (max_points <= 0 || points.size() <= static_cast<std::size_t>(max_points)) return points;
   const std::size_t stride = (points.size() + static_cast<std::size_t>(max_points) - 1) / static_cast<std::size_t>(max_points);
   storage->clear();

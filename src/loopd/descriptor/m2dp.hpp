@@ -29,17 +29,17 @@ std::optional<M2dpFrame> frame_from_string(const std::string& name);  ///< "pca"
 
 /// @brief M2DP parameters (He et al. 2016, IROS; Vlaminck et al. 2019, Sensors, Sec. 4.1 and 5: l=8, t=16, p=4, q=16).
 struct M2dpConfig {
-  int num_rings_l = 8;         ///< l: concentric rings per plane, outer radii k^2 r, k = 1..l (Vlaminck 2019 Sec. 4.1)
-  int num_sectors_t = 16;      ///< t: sectors per ring over (-pi, pi]; a multiple of 4 (comparison binning per quarter turn)
-  int num_azimuths_p = 4;      ///< p: plane azimuths, stride pi/p starting at -pi/2 (He 2016)
-  int num_elevations_q = 16;   ///< q: plane elevations, stride pi/(2q) starting at 0 (He 2016)
+  int num_rings_l = 8;        ///< l: concentric rings per plane, outer radii k^2 r, k = 1..l (Vlaminck 2019 Sec. 4.1)
+  int num_sectors_t = 16;     ///< t: sectors per ring over (-pi, pi]; a multiple of 4 (comparison binning per quarter turn)
+  int num_azimuths_p = 4;     ///< p: plane azimuths, stride pi/p starting at -pi/2 (He 2016)
+  int num_elevations_q = 16;  ///< q: plane elevations, stride pi/(2q) starting at 0 (He 2016)
   /// Frame of the planes. Default kGravityAligned: on the simulated drive and on KITTI revisits it separates
   /// revisits from other places better than the paper's PCA frame, whose in-plane axes flip or swing
   /// between visits when the first two principal values are close (see test_m2dp.cpp and the M2DP report).
   M2dpFrame frame = M2dpFrame::kGravityAligned;
   Backend backend = Backend::kAuto;
-  int opencl_device = -1;      ///< index into all OpenCL devices of all platforms; -1: first GPU, else first device
-  int num_threads = 0;         ///< CPU backend threads (OpenMP); 0: OpenMP default
+  int opencl_device = -1;  ///< index into all OpenCL devices of all platforms; -1: first GPU, else first device
+  int num_threads = 0;     ///< CPU backend threads (OpenMP); 0: OpenMP default
   /// Deterministic stride subsampling of the binning: when the cloud has more than this many points, every
   /// ceil(N / max_points)-th point is projected and counted; the frame (centroid, axes, axis signs) and the outer ring
   /// radius still come from all points (cheap O(N) passes; the farthest point and the axes are what a subsample
@@ -49,7 +49,7 @@ struct M2dpConfig {
   /// 0.0028), on simulated HDL-64E scans by at most 0.0036, against ~0.05 between revisits and ~0.21 to the nearest
   /// other place; binning 30k instead of 122k points is ~4x less work.
   int max_points = 30000;
-  bool log_fallback = true;    ///< print one stderr line when kAuto/kOpenCl falls back to the CPU
+  bool log_fallback = true;  ///< print one stderr line when kAuto/kOpenCl falls back to the CPU
 
   int num_planes() const { return num_azimuths_p * num_elevations_q; }
   int num_bins() const { return num_rings_l * num_sectors_t; }
@@ -60,11 +60,11 @@ struct M2dpConfig {
 /// @brief Descriptor of one scan: first left (p*q) then first right (l*t) singular vector of the signature matrix.
 struct M2dpResult {
   bool ok = false;
-  std::string error;            ///< why ok == false
-  Eigen::VectorXf descriptor;   ///< size p*q + l*t; empty when !ok
-  Backend backend = Backend::kCpu;  ///< backend that computed it
-  int num_points = 0;           ///< points used (after max_points subsampling)
-  double max_radius = 0;        ///< [m] farthest point from the centroid (outer ring radius l^2 r)
+  std::string error;                                   ///< why ok == false
+  Eigen::VectorXf descriptor;                          ///< size p*q + l*t; empty when !ok
+  Backend backend = Backend::kCpu;                     ///< backend that computed it
+  int num_points = 0;                                  ///< points used (after max_points subsampling)
+  double max_radius = 0;                               ///< [m] farthest point from the centroid (outer ring radius l^2 r)
   Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  ///< rows: frame x, y, z axes in the input frame
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< [m] in the input frame
 };
@@ -112,8 +112,7 @@ class DescriptorStore {
  public:
   void add(std::int64_t id, const Eigen::VectorXf& descriptor);
   /// @brief Up to k (id, distance) pairs, nearest first; ids rejected by `filter` are skipped.
-  std::vector<std::pair<std::int64_t, float>> knn(const Eigen::VectorXf& query, int k,
-                                                  const std::function<bool(std::int64_t)>& filter = {}) const;
+  std::vector<std::pair<std::int64_t, float>> knn(const Eigen::VectorXf& query, int k, const std::function<bool(std::int64_t)>& filter = {}) const;
   std::size_t size() const;
   int dimension() const { return dim_; }
 
@@ -121,12 +120,12 @@ class DescriptorStore {
   mutable std::mutex mutex_;
   int dim_ = 0;
   std::vector<std::int64_t> ids_;
-  std::vector<float> data_;  ///< row-major, size() x dim_
-  int qdim_ = 0;                       ///< dim_ rounded up to 32 (padding is zero)
-  std::vector<std::int8_t> quant_;     ///< row-major, size() x qdim_: round(x / scale)
-  std::vector<float> scale_;           ///< per row: max |x| / 127
-  std::vector<float> quant_norm2_;     ///< per row: || scale * quant ||^2
-  std::vector<float> quant_error_;     ///< per row: || x - scale * quant || (exact, summed in double)
+  std::vector<float> data_;         ///< row-major, size() x dim_
+  int qdim_ = 0;                    ///< dim_ rounded up to 32 (padding is zero)
+  std::vector<std::int8_t> quant_;  ///< row-major, size() x qdim_: round(x / scale)
+  std::vector<float> scale_;        ///< per row: max |x| / 127
+  std::vector<float> quant_norm2_;  ///< per row: || scale * quant ||^2
+  std::vector<float> quant_error_;  ///< per row: || x - scale * quant || (exact, summed in double)
 };
 
 }  // namespace loopd

@@ -119,10 +119,9 @@ inline __attribute__((always_inline)) void count_codes(const std::uint8_t* __res
 /// Each loop is a plain element-wise loop over the block so that the compiler vectorises it; target_clones builds
 /// an AVX2 variant beside the SSE2 baseline and picks one at load time (no -march=native in a distributed binary).
 /// No FMA in either variant (avx2 does not imply fma), so u, v round like kernels/m2dp.cl with FP_CONTRACT OFF.
-LOOPD_TARGET_CLONES("avx2", "default") void bin_and_count(const float* __restrict xs, const float* __restrict ys,
-                                                          const float* __restrict zs, int m, const float* pl,
-                                                          const float* params, int l, int t, BinScratch* s,
-                                                          std::uint32_t* __restrict counts) {
+LOOPD_TARGET_CLONES("avx2", "default")
+void bin_and_count(const float* __restrict xs, const float* __restrict ys, const float* __restrict zs, int m, const float* pl, const float* params,
+                   int l, int t, BinScratch* s, std::uint32_t* __restrict counts) {
   std::uint8_t* __restrict bin = s->bin;
   if (l == 8 && t == 16) {
     codes_fixed<8, 3>(xs, ys, zs, m, pl, params, bin);  // the paper's l = 8, t = 16

@@ -22,10 +22,10 @@ struct FirstMoments {
 /// Second-pass sums about the first-pass centroid: extent, third moments along the sign axes, and centred first and
 /// second moments in the first-pass PCA axes (accurate even when the first pass was summed in float).
 struct SecondMoments {
-  double max_r2 = 0;                                    ///< [m^2] farthest point from the centroid, squared
-  Eigen::Vector3d third = Eigen::Vector3d::Zero();      ///< sum of (b_k . q)^3 per sign axis b_k
-  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();     ///< sum of (a_j . q)(a_k . q) in the PCA axes a
-  Eigen::Vector3d first = Eigen::Vector3d::Zero();      ///< sum of a_k . q
+  double max_r2 = 0;                                 ///< [m^2] farthest point from the centroid, squared
+  Eigen::Vector3d third = Eigen::Vector3d::Zero();   ///< sum of (b_k . q)^3 per sign axis b_k
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();  ///< sum of (a_j . q)(a_k . q) in the PCA axes a
+  Eigen::Vector3d first = Eigen::Vector3d::Zero();   ///< sum of a_k . q
 };
 
 /// Principal axes (rows, descending variance) of a covariance.
@@ -49,8 +49,7 @@ struct Frame {
 /// Refines centroid and covariance with the second pass, checks degeneracy, and fixes the axis signs by the third
 /// moment rule: x flipped so that its third moment is >= 0, for kPca z likewise, y = z cross x (right-handed);
 /// for kGravityAligned z stays (0, 0, 1).
-Frame finish_frame(const FirstMoments& first, const Eigen::Matrix3d& pca, const Eigen::Matrix3d& sign_axes, const SecondMoments& s,
-                   M2dpFrame frame);
+Frame finish_frame(const FirstMoments& first, const Eigen::Matrix3d& pca, const Eigen::Matrix3d& sign_axes, const SecondMoments& s, M2dpFrame frame);
 
 /// Plane table: M2DP_PLANE_STRIDE floats per plane (e1, -c.e1, e2, -c.e2), in the binning coordinates.
 /// Plane (i, j), row i * q + j: azimuth theta_i = -pi/2 + i pi/p, elevation phi_j = j pi/(2q),
@@ -89,8 +88,7 @@ void descriptor_from_signature(const std::vector<std::uint32_t>& signature, cons
 int binning_stride(std::size_t num_points, int max_points);
 
 /// Points after the max_points stride rule (a copy only when subsampling).
-const std::vector<Eigen::Vector3f>& subsample(const std::vector<Eigen::Vector3f>& points, int max_points,
-                                              std::vector<Eigen::Vector3f>* storage);
+const std::vector<Eigen::Vector3f>& subsample(const std::vector<Eigen::Vector3f>& points, int max_points, std::vector<Eigen::Vector3f>* storage);
 
 /// CPU reference backend.
 M2dpResult compute_m2dp_cpu(const std::vector<Eigen::Vector3f>& points, const M2dpConfig& config);

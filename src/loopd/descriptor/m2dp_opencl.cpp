@@ -199,8 +199,8 @@ M2dpOpenCl::M2dpOpenCl(const M2dpConfig& config) : config_(config), state_(std::
     error_ = "clCreateProgramWithSource: " + opencl_error_string(err);
     return;
   }
-  const std::string options = "-cl-std=CL1.2 -D M2DP_L=" + std::to_string(config.num_rings_l) +
-                              " -D M2DP_T=" + std::to_string(config.num_sectors_t) + " -D M2DP_NPLANES=" + std::to_string(config.num_planes());
+  const std::string options = "-cl-std=CL1.2 -D M2DP_L=" + std::to_string(config.num_rings_l) + " -D M2DP_T=" + std::to_string(config.num_sectors_t) +
+                              " -D M2DP_NPLANES=" + std::to_string(config.num_planes());
   err = clBuildProgram(s.program, 1, &id, options.c_str(), nullptr, nullptr);
   if (err != CL_SUCCESS) {
     std::size_t n = 0;
@@ -210,9 +210,11 @@ M2dpOpenCl::M2dpOpenCl(const M2dpConfig& config) : config_(config), state_(std::
     error_ = "clBuildProgram: " + opencl_error_string(err) + ": " + log.substr(0, 2000);
     return;
   }
-  const std::pair<cl_kernel*, const char*> kernels[] = {
-      {&s.k_moments, "m2dp_moments"}, {&s.k_extent, "m2dp_extent"}, {&s.k_codes, "m2dp_codes"}, {&s.k_count, "m2dp_count"},
-      {&s.k_reduce, "m2dp_reduce"}};
+  const std::pair<cl_kernel*, const char*> kernels[] = {{&s.k_moments, "m2dp_moments"},
+                                                        {&s.k_extent, "m2dp_extent"},
+                                                        {&s.k_codes, "m2dp_codes"},
+                                                        {&s.k_count, "m2dp_count"},
+                                                        {&s.k_reduce, "m2dp_reduce"}};
   for (const auto& [k, name] : kernels) {
     *k = clCreateKernel(s.program, name, &err);
     if (err != CL_SUCCESS) {
@@ -240,8 +242,7 @@ ClStep M2dpOpenCl::State::ensure_scan_buffers(int n, int num_chunks, std::size_t
       (err = ensure(zs, static_cast<std::size_t>(n) * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
       (err = ensure(moments, static_cast<std::size_t>(num_chunks) * M2DP_MOMENT_STRIDE * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
       (err = ensure(extent, static_cast<std::size_t>(num_chunks) * M2DP_EXTENT_STRIDE * sizeof(float), CL_MEM_READ_WRITE)) != CL_SUCCESS ||
-      (err = ensure(partial, static_cast<std::size_t>(num_chunks) * num_planes * num_bins * sizeof(std::uint32_t), CL_MEM_READ_WRITE)) !=
-          CL_SUCCESS)
+      (err = ensure(partial, static_cast<std::size_t>(num_chunks) * num_planes * num_bins * sizeof(std::uint32_t), CL_MEM_READ_WRITE)) != CL_SUCCESS)
     return {"buffer", err};
   return {};
 }
@@ -329,8 +330,8 @@ ClStep M2dpOpenCl::State::run_binning(const BinningLaunch& launch, std::size_t n
   if ((err = clEnqueueNDRangeKernel(queue, k_reduce, 1, nullptr, &reduce_global, nullptr, 0, nullptr, nullptr)) != CL_SUCCESS)
     return {"m2dp_reduce", err};
   host_signature.resize(num_planes * num_bins);
-  if ((err = clEnqueueReadBuffer(queue, signature.mem, CL_TRUE, 0, host_signature.size() * sizeof(std::uint32_t), host_signature.data(), 0,
-                                 nullptr, nullptr)) != CL_SUCCESS)
+  if ((err = clEnqueueReadBuffer(queue, signature.mem, CL_TRUE, 0, host_signature.size() * sizeof(std::uint32_t), host_signature.data(), 0, nullptr,
+                                 nullptr)) != CL_SUCCESS)
     return {"read signature", err};
   return {};
 }

@@ -13,15 +13,16 @@ namespace {
 
 using detail::FrameIndex;
 
-bool has_descriptor(const LoopRecord& r) {
-  return std::isfinite(r.descriptor_distance) && r.descriptor_distance >= 0.0 && r.stage != "gate";
-}
+bool has_descriptor(const LoopRecord& r) { return std::isfinite(r.descriptor_distance) && r.descriptor_distance >= 0.0 && r.stage != "gate"; }
 
 int status_rank(LoopStatus s) {
   switch (s) {
-    case LoopStatus::kAccepted: return 2;
-    case LoopStatus::kRejected: return 1;
-    default: return 0;
+    case LoopStatus::kAccepted:
+      return 2;
+    case LoopStatus::kRejected:
+      return 1;
+    default:
+      return 0;
   }
 }
 
@@ -77,8 +78,8 @@ PairVerdicts pair_verdicts(const std::vector<LoopRecord>& loops) {
 
 /// @brief The decisive event `l` (index `idx`) against ground truth: keyframes, frame gap, true loop, and the error of
 /// its T_match_query.
-LoopCheck check_loop(std::size_t idx, const LoopRecord& l, const std::vector<std::int64_t>& keyframe_utimes,
-                     const std::vector<StampedPose>& gt, const FrameIndex& frames, const EvalConfig& config) {
+LoopCheck check_loop(std::size_t idx, const LoopRecord& l, const std::vector<std::int64_t>& keyframe_utimes, const std::vector<StampedPose>& gt,
+                     const FrameIndex& frames, const EvalConfig& config) {
   const std::int64_t gi = config.max_interpolation_gap_us, gn = config.max_nearest_gap_us;
   LoopCheck c;
   c.loop = idx;
@@ -90,8 +91,8 @@ LoopCheck check_loop(std::size_t idx, const LoopRecord& l, const std::vector<std
   if (gq && gm) {
     c.has_ground_truth = true;
     c.gt_distance = place_distance(gq->translation(), gm->translation(), config.ground_truth);
-    c.true_loop = is_true_loop(gq->translation(), frames.frame_of(l.query_utime), gm->translation(),
-                               frames.frame_of(l.match_utime), config.ground_truth);
+    c.true_loop =
+        is_true_loop(gq->translation(), frames.frame_of(l.query_utime), gm->translation(), frames.frame_of(l.match_utime), config.ground_truth);
     // Vlaminck 2019, 5.4 closes loops with T_match_query; the truth is GT_match^-1 * GT_query.
     const RelativeError e = relative_error(l.T_match_query, gm->inverse() * *gq);
     c.translation_error = e.translation;
@@ -102,17 +103,16 @@ LoopCheck check_loop(std::size_t idx, const LoopRecord& l, const std::vector<std
 
 /// @brief What the loop pairs add up to: the precision-recall inputs and the revisit keyframes they cover.
 struct LoopTally {
-  std::vector<double> pr_dist;  ///< best descriptor distance of each pair that has one
-  std::vector<bool> pr_true;    ///< ... whether it is a true loop
-  std::vector<int> pr_query;    ///< ... its query keyframe when that is a revisit, else -1
+  std::vector<double> pr_dist;                                    ///< best descriptor distance of each pair that has one
+  std::vector<bool> pr_true;                                      ///< ... whether it is a true loop
+  std::vector<int> pr_query;                                      ///< ... its query keyframe when that is a revisit, else -1
   std::set<int> covered_detect, covered_accept, covered_correct;  ///< revisit query keyframes with a true / any / correct accepted loop
 };
 
 /// @brief An accepted loop: closure correctness (Vlaminck 2019, 5.4), detection TP/FP and the revisits it covers.
 void count_accepted(LoopCheck& c, bool q_revisit, const EvalConfig& config, EvalReport& rep, LoopTally& tally) {
   ++rep.closure.accepted;
-  c.correct = c.has_ground_truth && c.translation_error <= config.closure_max_translation &&
-              c.rotation_error_deg <= config.closure_max_rotation_deg;
+  c.correct = c.has_ground_truth && c.translation_error <= config.closure_max_translation && c.rotation_error_deg <= config.closure_max_rotation_deg;
   if (c.correct) ++rep.closure.correct;
   if (c.true_loop) {
     ++rep.detection.true_positives;
@@ -125,8 +125,7 @@ void count_accepted(LoopCheck& c, bool q_revisit, const EvalConfig& config, Eval
 }
 
 /// @brief Checks every deduplicated loop pair (rep.checks) and counts the accepted ones.
-LoopTally check_loops(const EvalInput& in, const std::vector<StampedPose>& gt, const FrameIndex& frames,
-                      const EvalConfig& config, EvalReport& rep) {
+LoopTally check_loops(const EvalInput& in, const std::vector<StampedPose>& gt, const FrameIndex& frames, const EvalConfig& config, EvalReport& rep) {
   const PairVerdicts verdicts = pair_verdicts(in.loops);
   const LoopGroundTruth& lgt = rep.loop_ground_truth;
   LoopTally tally;
@@ -275,11 +274,9 @@ EvalReport evaluate(const EvalInput& in, const EvalConfig& config) {
   }
   detail::align_to_ground_truth(raw, rep);
 
-  rep.loop_ground_truth =
-      compute_loop_ground_truth(positions_of(rep.gt_keyframes), rep.keyframe_frames, config.ground_truth);
+  rep.loop_ground_truth = compute_loop_ground_truth(positions_of(rep.gt_keyframes), rep.keyframe_frames, config.ground_truth);
   const LoopTally tally = check_loops(in, tr.gt, frames, config, rep);
-  if (!in.loops.empty() && tally.pr_dist.empty())
-    rep.warnings.push_back("no loop event carries a descriptor distance: no precision-recall curve");
+  if (!in.loops.empty() && tally.pr_dist.empty()) rep.warnings.push_back("no loop event carries a descriptor distance: no precision-recall curve");
 
   fill_detection_metrics(tally, rep.loop_ground_truth, rep.detection);
   fill_closure_metrics(tally, rep.loop_ground_truth, rep.closure);

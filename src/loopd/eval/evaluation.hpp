@@ -20,8 +20,8 @@ struct LoopRecord {
   std::int64_t query_utime = 0;  ///< [us] scan utime of the query (newer) keyframe
   std::int64_t match_utime = 0;  ///< [us] scan utime of the match (older) keyframe
   LoopStatus status = LoopStatus::kCandidate;
-  std::string stage;                    ///< gate, descriptor, fourpcs, gicp, hungarian, accepted
-  double descriptor_distance = -1.0;    ///< M2DP distance; < 0 (or stage "gate") when not computed
+  std::string stage;                  ///< gate, descriptor, fourpcs, gicp, hungarian, accepted
+  double descriptor_distance = -1.0;  ///< M2DP distance; < 0 (or stage "gate") when not computed
   Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
   double ms_descriptor = 0, ms_fourpcs = 0, ms_gicp = 0, ms_hungarian = 0, ms_total = 0;  ///< [ms]
 };
@@ -34,18 +34,18 @@ struct KeyframePose {
 
 /// @brief Everything the evaluation needs, read from a drive log and loopd's output log.
 struct EvalInput {
-  std::vector<StampedPose> ground_truth;   ///< T_world_sensor, sorted by utime
-  std::vector<StampedPose> odometry;       ///< T_odom_sensor, sorted by utime
-  std::vector<std::int64_t> scan_utimes;   ///< [us] in drive order: the index is the frame number
-  std::vector<LoopRecord> loops;           ///< every loop event
-  std::vector<KeyframePose> corrected;     ///< last trajectory revision, oldest first (may be empty)
+  std::vector<StampedPose> ground_truth;                         ///< T_world_sensor, sorted by utime
+  std::vector<StampedPose> odometry;                             ///< T_odom_sensor, sorted by utime
+  std::vector<std::int64_t> scan_utimes;                         ///< [us] in drive order: the index is the frame number
+  std::vector<LoopRecord> loops;                                 ///< every loop event
+  std::vector<KeyframePose> corrected;                           ///< last trajectory revision, oldest first (may be empty)
   Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();  ///< of that revision (for later keyframes)
 };
 
 struct EvalConfig {
-  LoopGroundTruthConfig ground_truth;     ///< loop ground truth (Vlaminck 2019, 5.3)
-  double closure_max_translation = 0.5;   ///< [m] accepted loop correct when T_match_query is within this ...
-  double closure_max_rotation_deg = 2.0;  ///< [deg] ... and this of ground truth
+  LoopGroundTruthConfig ground_truth;               ///< loop ground truth (Vlaminck 2019, 5.3)
+  double closure_max_translation = 0.5;             ///< [m] accepted loop correct when T_match_query is within this ...
+  double closure_max_rotation_deg = 2.0;            ///< [deg] ... and this of ground truth
   std::int64_t max_interpolation_gap_us = 1000000;  ///< [us] interpolate ground truth / odometry across gaps up to this
   std::int64_t max_nearest_gap_us = 100000;         ///< [us] else use the nearest pose when this close
   std::optional<std::string> validate() const;
@@ -53,14 +53,14 @@ struct EvalConfig {
 
 /// @brief The verdict on one deduplicated loop pair.
 struct LoopCheck {
-  std::size_t loop = 0;         ///< index into EvalInput::loops (the decisive event of this pair)
-  bool has_ground_truth = false;  ///< both ends had a ground-truth pose
-  bool true_loop = false;       ///< ground truth: same place (distance, frame gap)
-  bool correct = false;         ///< accepted and T_match_query within tolerance of ground truth
-  double gt_distance = -1;      ///< [m] ground-truth distance of the two places (3D or planar per config)
-  std::int64_t frame_gap = 0;   ///< scans between query and match
+  std::size_t loop = 0;                                    ///< index into EvalInput::loops (the decisive event of this pair)
+  bool has_ground_truth = false;                           ///< both ends had a ground-truth pose
+  bool true_loop = false;                                  ///< ground truth: same place (distance, frame gap)
+  bool correct = false;                                    ///< accepted and T_match_query within tolerance of ground truth
+  double gt_distance = -1;                                 ///< [m] ground-truth distance of the two places (3D or planar per config)
+  std::int64_t frame_gap = 0;                              ///< scans between query and match
   double translation_error = -1, rotation_error_deg = -1;  ///< of T_match_query against ground truth
-  int query_keyframe = -1, match_keyframe = -1;           ///< indices into EvalReport::keyframe_utimes
+  int query_keyframe = -1, match_keyframe = -1;            ///< indices into EvalReport::keyframe_utimes
 };
 
 /// @brief A point of the precision-recall curve over the descriptor threshold.
@@ -77,8 +77,8 @@ struct PrPoint {
 struct DetectionMetrics {
   int true_positives = 0, false_positives = 0, false_negatives = 0;
   double precision = 0, recall = 0, f1 = 0;
-  int gt_queries = 0;           ///< keyframes with a ground-truth partner
-  std::int64_t gt_pairs = 0;    ///< ground-truth pairs among keyframes
+  int gt_queries = 0;         ///< keyframes with a ground-truth partner
+  std::int64_t gt_pairs = 0;  ///< ground-truth pairs among keyframes
   std::vector<PrPoint> pr_curve;
   double max_recall = 0, precision_at_max_recall = 0, f1_max = 0, f1_max_threshold = 0;
 };
@@ -107,13 +107,13 @@ struct EvalReport {
 
   // Keyframes evaluated (trajectory keyframes, loop ends, and the tail after the last revision).
   std::vector<std::int64_t> keyframe_utimes;
-  std::vector<std::int64_t> keyframe_frames;       ///< scan index of each keyframe
-  std::vector<Eigen::Isometry3d> gt_keyframes;     ///< ground truth at the keyframes
-  std::vector<Eigen::Isometry3d> before_keyframes; ///< odometry, aligned to ground truth at the first keyframe
-  std::vector<Eigen::Isometry3d> after_keyframes;  ///< corrected, aligned to ground truth at the first keyframe
-  std::vector<Eigen::Vector3d> gt_path;            ///< every ground-truth position (for plots and closest-pose error)
-  LoopGroundTruth loop_ground_truth;               ///< over the keyframes
-  std::vector<LoopCheck> checks;                   ///< one per deduplicated loop pair
+  std::vector<std::int64_t> keyframe_frames;        ///< scan index of each keyframe
+  std::vector<Eigen::Isometry3d> gt_keyframes;      ///< ground truth at the keyframes
+  std::vector<Eigen::Isometry3d> before_keyframes;  ///< odometry, aligned to ground truth at the first keyframe
+  std::vector<Eigen::Isometry3d> after_keyframes;   ///< corrected, aligned to ground truth at the first keyframe
+  std::vector<Eigen::Vector3d> gt_path;             ///< every ground-truth position (for plots and closest-pose error)
+  LoopGroundTruth loop_ground_truth;                ///< over the keyframes
+  std::vector<LoopCheck> checks;                    ///< one per deduplicated loop pair
 
   DetectionMetrics detection;
   ClosureMetrics closure;

@@ -25,8 +25,7 @@ struct FrameIndex {
 };
 
 /// @brief Frames from the drive's scans, or from the ground-truth poses (`gt`, sorted) when the drive has no scans.
-FrameIndex build_frame_index(const std::vector<std::int64_t>& scan_utimes, const std::vector<StampedPose>& gt,
-                             std::vector<std::string>& warnings);
+FrameIndex build_frame_index(const std::vector<std::int64_t>& scan_utimes, const std::vector<StampedPose>& gt, std::vector<std::string>& warnings);
 
 /// @brief Keyframes: the corrected trajectory's keyframes, the ends of every loop, and after the last revision the
 /// scans at the trajectory's typical keyframe spacing; every scan when there is no corrected trajectory.
@@ -49,8 +48,8 @@ struct RawKeyframePoses {
 
 /// @brief Looks up ground truth, odometry and the corrected pose at every keyframe utime; keyframes without ground
 /// truth or odometry are dropped (with a warning). Fills rep's keyframe_utimes, keyframe_frames and gt_keyframes.
-RawKeyframePoses sample_keyframes(const std::set<std::int64_t>& kf, const SortedTrajectories& tr, const EvalInput& in,
-                                  const FrameIndex& frames, const EvalConfig& config, EvalReport& rep);
+RawKeyframePoses sample_keyframes(const std::set<std::int64_t>& kf, const SortedTrajectories& tr, const EvalInput& in, const FrameIndex& frames,
+                                  const EvalConfig& config, EvalReport& rep);
 
 /// @brief "Before" and "after" share the ground truth's frame by aligning their first keyframe to it.
 void align_to_ground_truth(const RawKeyframePoses& raw, EvalReport& rep);

@@ -28,14 +28,13 @@ std::int64_t keyframe_spacing(const std::vector<KeyframePose>& corrected, const 
 
 /// @brief After the last revision (which does not list later keyframes), the scans at the trajectory's typical
 /// keyframe spacing are keyframes too.
-void add_keyframes_after_last_revision(const std::vector<KeyframePose>& corrected, const FrameIndex& frames,
-                                       std::set<std::int64_t>& kf, std::vector<std::string>& warnings) {
+void add_keyframes_after_last_revision(const std::vector<KeyframePose>& corrected, const FrameIndex& frames, std::set<std::int64_t>& kf,
+                                       std::vector<std::string>& warnings) {
   const std::int64_t spacing = keyframe_spacing(corrected, frames);
   std::int64_t last_kf_utime = 0;
   for (const auto& k : corrected) last_kf_utime = std::max(last_kf_utime, k.utime);
   int added = 0;
-  for (std::int64_t f = frames.frame_of(last_kf_utime) + spacing; f < static_cast<std::int64_t>(frames.entries.size());
-       f += spacing) {
+  for (std::int64_t f = frames.frame_of(last_kf_utime) + spacing; f < static_cast<std::int64_t>(frames.entries.size()); f += spacing) {
     // entries are sorted by utime, and frames are drive order, so entry f is frame f for increasing scans.
     const std::int64_t u = frames.entries[static_cast<std::size_t>(f)].first;
     if (u > last_kf_utime) {
@@ -44,8 +43,8 @@ void add_keyframes_after_last_revision(const std::vector<KeyframePose>& correcte
     }
   }
   if (added > 0)
-    warnings.push_back("the last trajectory revision ends before the drive: " + std::to_string(added) +
-                       " later scans taken as keyframes (every " + std::to_string(spacing) + " scans)");
+    warnings.push_back("the last trajectory revision ends before the drive: " + std::to_string(added) + " later scans taken as keyframes (every " +
+                       std::to_string(spacing) + " scans)");
 }
 
 }  // namespace
@@ -65,8 +64,7 @@ std::int64_t FrameIndex::frame_of(std::int64_t utime) const {
 }
 
 /// @brief Frames from the drive's scans, or from the ground-truth poses (`gt`, sorted) when the drive has no scans.
-FrameIndex build_frame_index(const std::vector<std::int64_t>& scan_utimes, const std::vector<StampedPose>& gt,
-                             std::vector<std::string>& warnings) {
+FrameIndex build_frame_index(const std::vector<std::int64_t>& scan_utimes, const std::vector<StampedPose>& gt, std::vector<std::string>& warnings) {
   FrameIndex index;
   if (!scan_utimes.empty()) {
     for (std::size_t i = 0; i < scan_utimes.size(); ++i) index.entries.emplace_back(scan_utimes[i], static_cast<std::int64_t>(i));
@@ -90,8 +88,9 @@ std::set<std::int64_t> select_keyframe_utimes(const EvalInput& in, const FrameIn
   if (!in.corrected.empty()) {
     add_keyframes_after_last_revision(in.corrected, frames, kf, warnings);
   } else {
-    warnings.push_back("no CORRECTED_TRAJECTORY in the results: every scan counts as a keyframe for recall, and "
-                       "'after' equals odometry");
+    warnings.push_back(
+        "no CORRECTED_TRAJECTORY in the results: every scan counts as a keyframe for recall, and "
+        "'after' equals odometry");
     for (const auto& fi : frames.entries) kf.insert(fi.first);
   }
   return kf;
@@ -111,8 +110,8 @@ std::vector<StampedPose> corrected_trajectory(const std::vector<KeyframePose>& k
 
 /// @brief Looks up ground truth, odometry and the corrected pose at every keyframe utime; keyframes without ground
 /// truth or odometry are dropped (with a warning). Fills rep's keyframe_utimes, keyframe_frames and gt_keyframes.
-RawKeyframePoses sample_keyframes(const std::set<std::int64_t>& kf, const SortedTrajectories& tr, const EvalInput& in,
-                                  const FrameIndex& frames, const EvalConfig& config, EvalReport& rep) {
+RawKeyframePoses sample_keyframes(const std::set<std::int64_t>& kf, const SortedTrajectories& tr, const EvalInput& in, const FrameIndex& frames,
+                                  const EvalConfig& config, EvalReport& rep) {
   const std::int64_t last_corrected = tr.corrected.empty() ? 0 : tr.corrected.back().utime;
   const std::int64_t gi = config.max_interpolation_gap_us, gn = config.max_nearest_gap_us;
   int no_gt = 0, no_odom = 0;

@@ -25,8 +25,8 @@ bool is_true_loop(const Eigen::Vector3d& a, std::int64_t frame_a, const Eigen::V
   return gap > config.min_frame_gap && place_distance(a, b, config) < config.max_distance;
 }
 
-LoopGroundTruth compute_loop_ground_truth(const std::vector<Eigen::Vector3d>& positions,
-                                          const std::vector<std::int64_t>& frames, const LoopGroundTruthConfig& config) {
+LoopGroundTruth compute_loop_ground_truth(const std::vector<Eigen::Vector3d>& positions, const std::vector<std::int64_t>& frames,
+                                          const LoopGroundTruthConfig& config) {
   LoopGroundTruth gt;
   const int n = static_cast<int>(std::min(positions.size(), frames.size()));
   gt.partners.assign(static_cast<std::size_t>(n), {});
@@ -36,9 +36,8 @@ LoopGroundTruth compute_loop_ground_truth(const std::vector<Eigen::Vector3d>& po
   const int sort_axis = (config.planar && config.up_axis == 0) ? 1 : 0;
   std::vector<int> order(static_cast<std::size_t>(n));
   std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) {
-    return positions[static_cast<std::size_t>(a)](sort_axis) < positions[static_cast<std::size_t>(b)](sort_axis);
-  });
+  std::sort(order.begin(), order.end(),
+            [&](int a, int b) { return positions[static_cast<std::size_t>(a)](sort_axis) < positions[static_cast<std::size_t>(b)](sort_axis); });
   for (int oi = 0; oi < n; ++oi) {
     const int i = order[static_cast<std::size_t>(oi)];
     const Eigen::Vector3d& pi = positions[static_cast<std::size_t>(i)];
@@ -46,8 +45,7 @@ LoopGroundTruth compute_loop_ground_truth(const std::vector<Eigen::Vector3d>& po
       const int j = order[static_cast<std::size_t>(oj)];
       const Eigen::Vector3d& pj = positions[static_cast<std::size_t>(j)];
       if (pj(sort_axis) - pi(sort_axis) >= config.max_distance) break;
-      if (!is_true_loop(pi, frames[static_cast<std::size_t>(i)], pj, frames[static_cast<std::size_t>(j)], config))
-        continue;
+      if (!is_true_loop(pi, frames[static_cast<std::size_t>(i)], pj, frames[static_cast<std::size_t>(j)], config)) continue;
       const bool i_newer = frames[static_cast<std::size_t>(i)] > frames[static_cast<std::size_t>(j)];
       const int q = i_newer ? i : j;
       const int m = i_newer ? j : i;

@@ -38,7 +38,7 @@ struct LoopGroundTruth {
 
 /// @brief Computes the ground-truth loops. `frames` holds the scan index of each pose in the drive (the
 ///        "frames apart" rule counts scans, not keyframes). Sizes of positions and frames must match.
-LoopGroundTruth compute_loop_ground_truth(const std::vector<Eigen::Vector3d>& positions,
-                                          const std::vector<std::int64_t>& frames, const LoopGroundTruthConfig& config);
+LoopGroundTruth compute_loop_ground_truth(const std::vector<Eigen::Vector3d>& positions, const std::vector<std::int64_t>& frames,
+                                          const LoopGroundTruthConfig& config);
 
 }  // namespace loopd

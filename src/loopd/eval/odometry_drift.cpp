@@ -26,8 +26,7 @@ OdometryDriftResult inject_odometry_drift(const std::vector<Eigen::Isometry3d>& 
     const Eigen::Isometry3d step = gt[i - 1].inverse() * gt[i];
     const double length = step.translation().norm();
     const double dyaw = c.heading_bias_deg_per_m * kDeg * length + c.yaw_random_walk_deg * kDeg * normal(rng);
-    const Eigen::Vector3d dt(c.translation_noise * normal(rng), c.translation_noise * normal(rng),
-                             0.2 * c.translation_noise * normal(rng));
+    const Eigen::Vector3d dt(c.translation_noise * normal(rng), c.translation_noise * normal(rng), 0.2 * c.translation_noise * normal(rng));
     Eigen::Isometry3d noisy = step;
     noisy.translation() = (1.0 + c.scale_bias) * step.translation() + dt;
     noisy.linear() = Eigen::AngleAxisd(dyaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * step.linear();

@@ -28,8 +28,8 @@ ErrorStats error_stats(std::vector<double> e) {
   return s;
 }
 
-Eigen::Isometry3d umeyama_alignment(const std::vector<Eigen::Vector3d>& source,
-                                    const std::vector<Eigen::Vector3d>& target, double* scale, bool with_scale) {
+Eigen::Isometry3d umeyama_alignment(const std::vector<Eigen::Vector3d>& source, const std::vector<Eigen::Vector3d>& target, double* scale,
+                                    bool with_scale) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   if (scale) *scale = 1.0;
   const std::size_t n = std::min(source.size(), target.size());
@@ -63,8 +63,7 @@ Eigen::Isometry3d umeyama_alignment(const std::vector<Eigen::Vector3d>& source,
   return T;
 }
 
-double ate_rmse(const std::vector<Eigen::Vector3d>& estimate, const std::vector<Eigen::Vector3d>& ground_truth,
-                Eigen::Isometry3d* T_gt_est) {
+double ate_rmse(const std::vector<Eigen::Vector3d>& estimate, const std::vector<Eigen::Vector3d>& ground_truth, Eigen::Isometry3d* T_gt_est) {
   const std::size_t n = std::min(estimate.size(), ground_truth.size());
   if (n == 0) return 0.0;
   const Eigen::Isometry3d T = umeyama_alignment(estimate, ground_truth);
@@ -82,11 +81,10 @@ RelativeError relative_error(const Eigen::Isometry3d& estimate, const Eigen::Iso
   return e;
 }
 
-std::optional<Eigen::Isometry3d> pose_at(const std::vector<StampedPose>& poses, std::int64_t utime,
-                                         std::int64_t max_interpolation_gap_us, std::int64_t max_nearest_gap_us) {
+std::optional<Eigen::Isometry3d> pose_at(const std::vector<StampedPose>& poses, std::int64_t utime, std::int64_t max_interpolation_gap_us,
+                                         std::int64_t max_nearest_gap_us) {
   if (poses.empty()) return std::nullopt;
-  const auto it = std::lower_bound(poses.begin(), poses.end(), utime,
-                                   [](const StampedPose& p, std::int64_t t) { return p.utime < t; });
+  const auto it = std::lower_bound(poses.begin(), poses.end(), utime, [](const StampedPose& p, std::int64_t t) { return p.utime < t; });
   if (it != poses.end() && it->utime == utime) return it->T_world_sensor;
   if (it != poses.end() && it != poses.begin()) {
     const StampedPose& a = *(it - 1);

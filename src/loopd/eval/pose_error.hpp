@@ -20,8 +20,7 @@ ErrorStats error_stats(std::vector<double> errors);
 
 /// @brief Least-squares rigid transform T (rotation + translation, optionally scale) with T * source ~ target
 ///        (Umeyama 1991). Needs >= 3 non-collinear points for a unique rotation; returns identity when empty.
-Eigen::Isometry3d umeyama_alignment(const std::vector<Eigen::Vector3d>& source,
-                                    const std::vector<Eigen::Vector3d>& target, double* scale = nullptr,
+Eigen::Isometry3d umeyama_alignment(const std::vector<Eigen::Vector3d>& source, const std::vector<Eigen::Vector3d>& target, double* scale = nullptr,
                                     bool with_scale = false);
 
 /// @brief Absolute trajectory error: RMSE of position differences after SE(3) Umeyama alignment of estimate onto
@@ -39,7 +38,6 @@ RelativeError relative_error(const Eigen::Isometry3d& estimate, const Eigen::Iso
 ///        they are at most `max_interpolation_gap_us` apart, else the nearest pose when it is within
 ///        `max_nearest_gap_us`; nullopt otherwise.
 std::optional<Eigen::Isometry3d> pose_at(const std::vector<StampedPose>& sorted_poses, std::int64_t utime,
-                                         std::int64_t max_interpolation_gap_us = 1000000,
-                                         std::int64_t max_nearest_gap_us = 100000);
+                                         std::int64_t max_interpolation_gap_us = 1000000, std::int64_t max_nearest_gap_us = 100000);
 
 }  // namespace loopd

@@ -92,8 +92,7 @@ KittiCalibration read_kitti_calib_tr(const std::string& path) {
   return c;
 }
 
-std::vector<Eigen::Isometry3d> kitti_camera_to_lidar(const std::vector<Eigen::Isometry3d>& camera_poses,
-                                                     const Eigen::Isometry3d& T_cam_velo) {
+std::vector<Eigen::Isometry3d> kitti_camera_to_lidar(const std::vector<Eigen::Isometry3d>& camera_poses, const Eigen::Isometry3d& T_cam_velo) {
   std::vector<Eigen::Isometry3d> out;
   out.reserve(camera_poses.size());
   const Eigen::Isometry3d Tr_inv = T_cam_velo.inverse();

@@ -32,8 +32,7 @@ KittiCalibration read_kitti_calib_tr(const std::string& path);
 
 /// @brief KITTI camera-frame poses to lidar poses: T_world_velo = Tr^-1 * P_cam * Tr (the world frame becomes the
 ///        lidar frame of the first scan when P_cam(0) is the identity).
-std::vector<Eigen::Isometry3d> kitti_camera_to_lidar(const std::vector<Eigen::Isometry3d>& camera_poses,
-                                                     const Eigen::Isometry3d& T_cam_velo);
+std::vector<Eigen::Isometry3d> kitti_camera_to_lidar(const std::vector<Eigen::Isometry3d>& camera_poses, const Eigen::Isometry3d& T_cam_velo);
 
 /// @brief KITTI ground truth as lidar poses T_world_velo: read_kitti_calib_tr(calib_path), then
 ///        read_trajectory(poses_path, kKitti) (e.g. poses/00.txt), then kitti_camera_to_lidar. stamps: the pose index.

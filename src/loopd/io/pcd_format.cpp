@@ -26,14 +26,14 @@ struct PcdHeader {
   std::vector<PcdField> fields;
   std::uint64_t width = 0, height = 0, points = 0;
   bool has_width = false, has_height = false, has_points = false;
-  std::string data;               ///< ascii | binary | binary_compressed
-  std::size_t data_offset = 0;    ///< first byte after the DATA line
-  int data_line = 0;              ///< line number of the DATA line
-  std::uint64_t point_size = 0;   ///< bytes of one point (binary)
+  std::string data;              ///< ascii | binary | binary_compressed
+  std::size_t data_offset = 0;   ///< first byte after the DATA line
+  int data_line = 0;             ///< line number of the DATA line
+  std::uint64_t point_size = 0;  ///< bytes of one point (binary)
   std::uint64_t values_per_point = 0;
 };
 
-constexpr std::uint64_t kMaxCount = 1u << 20;     // values of one field
+constexpr std::uint64_t kMaxCount = 1u << 20;  // values of one field
 constexpr std::size_t kMaxFields = 4096;
 constexpr std::uint64_t kMaxPoints = std::uint64_t{1} << 40;
 
@@ -60,13 +60,18 @@ bool parse_uint(const std::string& s, std::uint64_t max, std::uint64_t* v) {
 
 bool scalar_from_pcd(char type, int size, ScalarType* t) {
   switch (type) {
-    case 'I': *t = size == 1 ? ScalarType::kInt8 : size == 2 ? ScalarType::kInt16 : size == 4 ? ScalarType::kInt32 : ScalarType::kInt64; break;
-    case 'U': *t = size == 1 ? ScalarType::kUint8 : size == 2 ? ScalarType::kUint16 : size == 4 ? ScalarType::kUint32 : ScalarType::kUint64; break;
+    case 'I':
+      *t = size == 1 ? ScalarType::kInt8 : size == 2 ? ScalarType::kInt16 : size == 4 ? ScalarType::kInt32 : ScalarType::kInt64;
+      break;
+    case 'U':
+      *t = size == 1 ? ScalarType::kUint8 : size == 2 ? ScalarType::kUint16 : size == 4 ? ScalarType::kUint32 : ScalarType::kUint64;
+      break;
     case 'F':
       if (size != 4 && size != 8) return false;
       *t = size == 4 ? ScalarType::kFloat32 : ScalarType::kFloat64;
       break;
-    default: return false;
+    default:
+      return false;
   }
   return size == 1 || size == 2 || size == 4 || size == 8;
 }
@@ -101,7 +106,8 @@ std::string resolve_point_count(PcdHeader* h) {
     const std::uint64_t height = h->has_height ? h->height : 1;
     if (height != 0 && h->width > kMaxPoints / height) return "WIDTH * HEIGHT is too large";
     h->points = h->width * height;
-  } else if (h->has_width && h->has_height && (h->height == 0 ? h->width != 0 || h->points != 0 : h->width > kMaxPoints / h->height || h->width * h->height != h->points)) {
+  } else if (h->has_width && h->has_height &&
+             (h->height == 0 ? h->width != 0 || h->points != 0 : h->width > kMaxPoints / h->height || h->width * h->height != h->points)) {
     return "POINTS " + std::to_string(h->points) + " is not WIDTH * HEIGHT (" + std::to_string(h->width) + " * " + std::to_string(h->height) + ")";
   }
   return {};
@@ -256,7 +262,8 @@ std::optional<std::string> read_ascii_points(const std::string& bytes, const std
     for (int k = 0; k < w.used; ++k) {
       const std::string& tok = tokens[static_cast<std::size_t>(token_of[k])];
       if (!parse_float_token(tok, &v[k]))
-        return at_line(source, line) + "field '" + h.fields[static_cast<std::size_t>(w.idx[k])].name + "': '" + tok.substr(0, 64) + "' is not a number";
+        return at_line(source, line) + "field '" + h.fields[static_cast<std::size_t>(w.idx[k])].name + "': '" + tok.substr(0, 64) +
+               "' is not a number";
     }
     cloud->points.emplace_back(v[0], v[1], v[2]);
     if (w.has_intensity) cloud->intensity.push_back(v[3]);
@@ -273,7 +280,8 @@ std::optional<std::string> decompress_fields(const std::string& source, const Pc
                                              std::size_t remaining, std::uint64_t data_size, std::vector<unsigned char>* out,
                                              std::uint64_t field_block[4]) {
   if (remaining < 8)
-    return at_byte(source, h.data_offset) + "binary_compressed data needs an 8-byte size header, the file has " + std::to_string(remaining) + " bytes";
+    return at_byte(source, h.data_offset) + "binary_compressed data needs an 8-byte size header, the file has " + std::to_string(remaining) +
+           " bytes";
   std::uint32_t compressed = 0, uncompressed = 0;
   std::memcpy(&compressed, base, 4);
   std::memcpy(&uncompressed, base + 4, 4);
@@ -281,8 +289,8 @@ std::optional<std::string> decompress_fields(const std::string& source, const Pc
     return at_byte(source, h.data_offset) + "compressed size " + std::to_string(compressed) + " is more than the " + std::to_string(remaining - 8) +
            " bytes present";
   if (uncompressed != data_size)
-    return at_byte(source, h.data_offset + 4) + "uncompressed size " + std::to_string(uncompressed) + " is not POINTS * point size = " +
-           std::to_string(data_size);
+    return at_byte(source, h.data_offset + 4) + "uncompressed size " + std::to_string(uncompressed) +
+           " is not POINTS * point size = " + std::to_string(data_size);
   if (data_size > static_cast<std::uint64_t>(compressed) * 88 + 8)
     return at_byte(source, h.data_offset + 4) + "uncompressed size " + std::to_string(uncompressed) + " cannot come from " +
            std::to_string(compressed) + " LZF bytes";
@@ -292,7 +300,8 @@ std::optional<std::string> decompress_fields(const std::string& source, const Pc
     return at_byte(source, h.data_offset + 8 + bad) + "LZF: " + reason;
   for (int k = 0; k < w.used; ++k) {
     std::uint64_t start = 0;
-    for (int f = 0; f < w.idx[k]; ++f) start += h.points * static_cast<std::uint64_t>(h.fields[static_cast<std::size_t>(f)].size) * h.fields[static_cast<std::size_t>(f)].count;
+    for (int f = 0; f < w.idx[k]; ++f)
+      start += h.points * static_cast<std::uint64_t>(h.fields[static_cast<std::size_t>(f)].size) * h.fields[static_cast<std::size_t>(f)].count;
     field_block[k] = start;
   }
   return std::nullopt;

@@ -29,9 +29,9 @@ constexpr std::uint64_t kMaxCount = std::uint64_t{1} << 40;
 
 bool scalar_from_ply(const std::string& name, ScalarType* t) {
   static const std::pair<const char*, ScalarType> kNames[] = {
-      {"char", ScalarType::kInt8},     {"int8", ScalarType::kInt8},     {"uchar", ScalarType::kUint8},   {"uint8", ScalarType::kUint8},
-      {"short", ScalarType::kInt16},   {"int16", ScalarType::kInt16},   {"ushort", ScalarType::kUint16}, {"uint16", ScalarType::kUint16},
-      {"int", ScalarType::kInt32},     {"int32", ScalarType::kInt32},   {"uint", ScalarType::kUint32},   {"uint32", ScalarType::kUint32},
+      {"char", ScalarType::kInt8},     {"int8", ScalarType::kInt8},       {"uchar", ScalarType::kUint8},    {"uint8", ScalarType::kUint8},
+      {"short", ScalarType::kInt16},   {"int16", ScalarType::kInt16},     {"ushort", ScalarType::kUint16},  {"uint16", ScalarType::kUint16},
+      {"int", ScalarType::kInt32},     {"int32", ScalarType::kInt32},     {"uint", ScalarType::kUint32},    {"uint32", ScalarType::kUint32},
       {"float", ScalarType::kFloat32}, {"float32", ScalarType::kFloat32}, {"double", ScalarType::kFloat64}, {"float64", ScalarType::kFloat64}};
   for (const auto& [n, v] : kNames)
     if (name == n) {
@@ -60,8 +60,7 @@ std::string at_line(const std::string& source, int line) { return source + ":" +
 std::string at_byte(const std::string& source, std::size_t offset) { return source + ": byte offset " + std::to_string(offset) + ": "; }
 
 /// Header: elements, format, and where the data start. Returns "" or the reason (line in *line_no).
-std::string parse_header(const std::string& bytes, std::vector<PlyElement>* elements, PlyFormat* format, std::size_t* data_offset,
-                         int* line_no) {
+std::string parse_header(const std::string& bytes, std::vector<PlyElement>* elements, PlyFormat* format, std::size_t* data_offset, int* line_no) {
   std::size_t pos = 0;
   bool has_format = false;
   *line_no = 0;
@@ -84,22 +83,26 @@ std::string parse_header(const std::string& bytes, std::vector<PlyElement>* elem
     if (w.empty() || w[0] == "comment" || w[0] == "obj_info") continue;
     if (w[0] == "format") {
       if (w.size() != 3) return "format line needs '<format> <version>'";
-      if (w[1] == "ascii") *format = PlyFormat::kAscii;
-      else if (w[1] == "binary_little_endian") *format = PlyFormat::kBinaryLittle;
-      else if (w[1] == "binary_big_endian") *format = PlyFormat::kBinaryBig;
-      else return "unknown format '" + w[1].substr(0, 64) + "' (ascii, binary_little_endian, binary_big_endian)";
+      if (w[1] == "ascii")
+        *format = PlyFormat::kAscii;
+      else if (w[1] == "binary_little_endian")
+        *format = PlyFormat::kBinaryLittle;
+      else if (w[1] == "binary_big_endian")
+        *format = PlyFormat::kBinaryBig;
+      else
+        return "unknown format '" + w[1].substr(0, 64) + "' (ascii, binary_little_endian, binary_big_endian)";
       has_format = true;
     } else if (w[0] == "element") {
       PlyElement e;
-      if (w.size() != 3 || !parse_uint(w[2], kMaxCount, &e.count))
-        return "element line needs '<name> <count>' with a count in [0, 2^40]";
+      if (w.size() != 3 || !parse_uint(w[2], kMaxCount, &e.count)) return "element line needs '<name> <count>' with a count in [0, 2^40]";
       e.name = w[1];
       elements->push_back(e);
     } else if (w[0] == "property") {
       if (elements->empty()) return "property before any element";
       PlyProperty p;
       if (w.size() == 5 && w[1] == "list") {
-        if (!scalar_from_ply(w[2], &p.count_type) || !is_integer(p.count_type)) return "list count type '" + w[2].substr(0, 64) + "' is not an integer type";
+        if (!scalar_from_ply(w[2], &p.count_type) || !is_integer(p.count_type))
+          return "list count type '" + w[2].substr(0, 64) + "' is not an integer type";
         if (!scalar_from_ply(w[3], &p.type)) return "unknown property type '" + w[3].substr(0, 64) + "'";
         p.is_list = true;
         p.name = w[4];
@@ -185,8 +188,8 @@ std::optional<std::string> read_layout(const std::string& bytes, const std::stri
 }
 
 /// One ascii row of element el (row i): every property (lists included) parsed, the wanted ones of a vertex in v.
-std::optional<std::string> read_ascii_row(TokenReader& tr, const std::string& source, const PlyElement& el, std::uint64_t i,
-                                          const Wanted* want, float v[4]) {
+std::optional<std::string> read_ascii_row(TokenReader& tr, const std::string& source, const PlyElement& el, std::uint64_t i, const Wanted* want,
+                                          float v[4]) {
   std::string tok;
   for (std::size_t p = 0; p < el.properties.size(); ++p) {
     const PlyProperty& prop = el.properties[p];
@@ -229,8 +232,8 @@ std::optional<std::string> read_ascii_body(const std::string& bytes, const std::
 }
 
 /// A vertex of fixed size: the whole element must be present before the cloud is sized.
-std::optional<std::string> reserve_vertices(const std::string& source, const PlyElement& el, std::size_t pos, std::size_t end,
-                                            bool has_intensity, PointCloud* cloud) {
+std::optional<std::string> reserve_vertices(const std::string& source, const PlyElement& el, std::size_t pos, std::size_t end, bool has_intensity,
+                                            PointCloud* cloud) {
   std::uint64_t row = 0;
   bool fixed = true;
   for (const auto& p : el.properties) {
@@ -255,8 +258,8 @@ struct BinaryCursor {
 };
 
 /// One binary row of element el (row i): every property skipped or read, the wanted ones of a vertex in v.
-std::optional<std::string> read_binary_row(BinaryCursor& c, const std::string& source, const PlyElement& el, std::uint64_t i,
-                                           const Wanted* want, float v[4]) {
+std::optional<std::string> read_binary_row(BinaryCursor& c, const std::string& source, const PlyElement& el, std::uint64_t i, const Wanted* want,
+                                           float v[4]) {
   for (std::size_t p = 0; p < el.properties.size(); ++p) {
     const PlyProperty& prop = el.properties[p];
     std::uint64_t items = 1;
@@ -307,7 +310,9 @@ CloudFile parse_ply(const std::string& bytes, const std::string& source) {
   CloudFile f;
   PlyLayout layout;
   std::optional<std::string> reason = read_layout(bytes, source, &layout);
-  if (!reason) reason = layout.format == PlyFormat::kAscii ? read_ascii_body(bytes, source, layout, &f.cloud) : read_binary_body(bytes, source, layout, &f.cloud);
+  if (!reason)
+    reason =
+        layout.format == PlyFormat::kAscii ? read_ascii_body(bytes, source, layout, &f.cloud) : read_binary_body(bytes, source, layout, &f.cloud);
   if (reason) {
     f.cloud = PointCloud();  // nothing half-read is handed out
     f.error = *reason;

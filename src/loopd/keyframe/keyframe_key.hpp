@@ -19,9 +19,7 @@ struct KeyframeKey {
   friend bool operator==(const KeyframeKey& a, const KeyframeKey& b) { return a.session == b.session && a.index == b.index; }
   friend bool operator!=(const KeyframeKey& a, const KeyframeKey& b) { return !(a == b); }
   /// Session first, then index: the order keyframes were made in within one session.
-  friend bool operator<(const KeyframeKey& a, const KeyframeKey& b) {
-    return a.session < b.session || (a.session == b.session && a.index < b.index);
-  }
+  friend bool operator<(const KeyframeKey& a, const KeyframeKey& b) { return a.session < b.session || (a.session == b.session && a.index < b.index); }
 };
 
 /// @brief "session/index", e.g. "0/17" (log lines).
@@ -34,7 +32,8 @@ std::int64_t keyframes_between(const KeyframeKey& older, const KeyframeKey& newe
 /// @brief Hash for unordered containers keyed by KeyframeKey.
 struct KeyframeKeyHash {
   std::size_t operator()(const KeyframeKey& key) const noexcept {
-    const auto mixed = static_cast<std::uint64_t>(key.index) * 0x9E3779B97F4A7C15ULL ^ static_cast<std::uint64_t>(static_cast<std::uint32_t>(key.session));
+    const auto mixed =
+        static_cast<std::uint64_t>(key.index) * 0x9E3779B97F4A7C15ULL ^ static_cast<std::uint64_t>(static_cast<std::uint32_t>(key.session));
     return static_cast<std::size_t>(mixed);
   }
 };

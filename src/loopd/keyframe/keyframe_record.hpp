@@ -16,13 +16,13 @@ namespace loopd {
 /// verification (Sec. 4.2-4.3). Computed once, on a worker thread, from the scan alone.
 struct KeyframeFeatures {
   bool ok = false;
-  std::string error;                 ///< why the scan is unusable (ok = false)
-  Eigen::VectorXf descriptor;        ///< M2DP signature
-  PreparedScan prepared;             ///< voxel cloud, normals, segmentation
-  double ms_descriptor = 0.0;        ///< [ms]
-  double ms_prepare = 0.0;           ///< [ms]
-  std::size_t input_points = 0;      ///< points in the raw scan
-  std::size_t invalid_points = 0;    ///< NaN/Inf points removed
+  std::string error;               ///< why the scan is unusable (ok = false)
+  Eigen::VectorXf descriptor;      ///< M2DP signature
+  PreparedScan prepared;           ///< voxel cloud, normals, segmentation
+  double ms_descriptor = 0.0;      ///< [ms]
+  double ms_prepare = 0.0;         ///< [ms]
+  std::size_t input_points = 0;    ///< points in the raw scan
+  std::size_t invalid_points = 0;  ///< NaN/Inf points removed
 
   /// @brief Heap + object footprint [bytes] of the descriptor and the prepared scan.
   std::size_t bytes() const { return prepared.bytes() + static_cast<std::size_t>(descriptor.size()) * sizeof(float); }

@@ -24,12 +24,12 @@ struct PreparedScan {
   /// keyframe's covariances are computed once, not once per loop candidate; (0, 0, 0): none known (isotropic
   /// covariance). Empty: verify() estimates them. Quantisation error <= ~0.5 deg.
   std::vector<PackedNormal> normals;
-  Segmentation segmentation;            ///< clusters of the full-resolution scan (Vlaminck 2019, Sec. 4.2.1)
-  std::size_t input_points = 0;         ///< points in the raw scan
-  std::size_t finite_points = 0;        ///< after dropping NaN/Inf
-  double ms_segmentation = 0;           ///< [ms]
-  double ms_total = 0;                  ///< [ms] whole prepare_scan
-  std::string error;                    ///< non-empty when the scan is unusable (verify() then rejects at kInput)
+  Segmentation segmentation;      ///< clusters of the full-resolution scan (Vlaminck 2019, Sec. 4.2.1)
+  std::size_t input_points = 0;   ///< points in the raw scan
+  std::size_t finite_points = 0;  ///< after dropping NaN/Inf
+  double ms_segmentation = 0;     ///< [ms]
+  double ms_total = 0;            ///< [ms] whole prepare_scan
+  std::string error;              ///< non-empty when the scan is unusable (verify() then rejects at kInput)
 
   /// @brief Heap + object footprint [bytes] (target <= ~120 KB for an HDL-64E town scan).
   std::size_t bytes() const;

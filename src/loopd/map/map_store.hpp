@@ -44,7 +44,7 @@ struct MapStoreConfig {
   /// SQLite `synchronous` in WAL mode: "normal" (a committed record survives a crash of loopd; the last commits may be
   /// lost on power loss) or "full" (survives power loss; an fsync per commit).
   std::string synchronous = "normal";
-  bool read_only = false;  ///< open an existing map for reading only (loopd-map)
+  bool read_only = false;      ///< open an existing map for reading only (loopd-map)
   int busy_timeout_ms = 5000;  ///< how long a write waits for another process's lock before kBusy [ms]
   /// Cap on the map's size in pages of 4 KiB (SQLite `max_page_count`; 0: no cap beyond SQLite's own). A write past it
   /// fails with kIo as on a full disk: tests simulate a full disk with it.

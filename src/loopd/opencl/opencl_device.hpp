@@ -7,12 +7,12 @@ namespace loopd {
 
 /// @brief One OpenCL device of one platform.
 struct OpenClDeviceInfo {
-  int index = 0;          ///< position in list_opencl_devices() (the `opencl_device` config value)
-  std::string platform;   ///< platform name (e.g. "Portable Computing Language")
-  std::string name;       ///< device name
-  bool gpu = false;       ///< CL_DEVICE_TYPE_GPU
+  int index = 0;         ///< position in list_opencl_devices() (the `opencl_device` config value)
+  std::string platform;  ///< platform name (e.g. "Portable Computing Language")
+  std::string name;      ///< device name
+  bool gpu = false;      ///< CL_DEVICE_TYPE_GPU
   int compute_units = 0;
-  void* id = nullptr;     ///< cl_device_id
+  void* id = nullptr;  ///< cl_device_id
 };
 
 /// @brief All devices of all platforms, in platform order. Empty when no ICD / platform exists.

@@ -72,7 +72,8 @@ std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, doub
       }
     }
   }
-  std::sort(out.begin(), out.end(), [](const GateCandidate& a, const GateCandidate& b) { return a.distance < b.distance || (a.distance == b.distance && a.key < b.key); });
+  std::sort(out.begin(), out.end(),
+            [](const GateCandidate& a, const GateCandidate& b) { return a.distance < b.distance || (a.distance == b.distance && a.key < b.key); });
   return out;
 }
 

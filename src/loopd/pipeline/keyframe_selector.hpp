@@ -10,9 +10,9 @@ namespace loopd {
 /// @brief Keyframe rule of Ren 2019, Sec. 3.3.2: a scan becomes a keyframe when the distance, the rotation
 ///        or the time since the last keyframe exceeds its threshold.
 struct KeyframeConfig {
-  double min_distance = 2.0;      ///< [m] translation since the last keyframe
-  double min_rotation_deg = 15.0; ///< [deg] rotation since the last keyframe
-  double max_interval = 10.0;     ///< [s] time since the last keyframe (0 disables)
+  double min_distance = 2.0;       ///< [m] translation since the last keyframe
+  double min_rotation_deg = 15.0;  ///< [deg] rotation since the last keyframe
+  double max_interval = 10.0;      ///< [s] time since the last keyframe (0 disables)
   std::optional<std::string> validate() const;
 };
 

@@ -66,8 +66,8 @@ KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
 /// order wins and later ones are not reported. Reads nothing that changes while it runs (guesses are made up front).
 class LoopDetector::CandidateVerifications {
  public:
-  CandidateVerifications(const PreparedScan& query, std::vector<const PreparedScan*> matches,
-                         std::vector<std::optional<Eigen::Isometry3d>> guesses, const VerifyConfig& config, bool concurrent)
+  CandidateVerifications(const PreparedScan& query, std::vector<const PreparedScan*> matches, std::vector<std::optional<Eigen::Isometry3d>> guesses,
+                         const VerifyConfig& config, bool concurrent)
       : query_(query), matches_(std::move(matches)), guesses_(std::move(guesses)), config_(config), pending_(matches_.size()) {
     if (!concurrent) return;
     for (std::size_t i = 1; i < matches_.size(); ++i) pending_[i] = std::async(std::launch::async, [this, i] { return run(i); });
@@ -96,8 +96,10 @@ LoopDetector::CandidateVerifications LoopDetector::start_verifications(const Key
   for (std::size_t i = 0; i < count; ++i) {
     const KeyframeRecord& match = *ranked[i].match;
     matches.push_back(&match.features->prepared);
-    if (from_map) guesses.emplace_back(corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(match.key))].inverse() * T_map_query);
-    else guesses.emplace_back(std::nullopt);
+    if (from_map)
+      guesses.emplace_back(corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(match.key))].inverse() * T_map_query);
+    else
+      guesses.emplace_back(std::nullopt);
   }
   return {query.features->prepared, std::move(matches), std::move(guesses), config_.verify, config_.parallel_candidates && !from_map};
 }
@@ -239,7 +241,9 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
     }
   }
   gate_.add({query.key, T_map_query.translation(), travelled_});
-  if (out.correction) gate_.update_positions([this](const KeyframeKey& k) { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(k))].translation(); });
+  if (out.correction)
+    gate_.update_positions(
+        [this](const KeyframeKey& k) { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(k))].translation(); });
   return out;
 }
 

@@ -37,12 +37,12 @@ struct LoopDetectorConfig {
     verify.gicp.num_threads = 1;
     correction.graph.num_threads = 1;
   }
-  std::string sensor = "hdl64";        ///< lidar model preset (vlp16, hdl32, hdl64, os1-64) for segmentation
-  KeyframeConfig keyframe;             ///< Ren 2019 Sec. 3.3.2
-  DistanceGateConfig gate;             ///< Vlaminck 2019 Sec. 4, Ren 2019 Sec. 3.4.1
-  M2dpConfig m2dp;                     ///< Vlaminck 2019 Sec. 4.1 (l=8, t=16, p=4, q=16)
-  PrepareConfig prepare;               ///< downsampling + segmentation of a keyframe
-  VerifyConfig verify;                 ///< Vlaminck 2019 Sec. 4.2-4.3
+  std::string sensor = "hdl64";           ///< lidar model preset (vlp16, hdl32, hdl64, os1-64) for segmentation
+  KeyframeConfig keyframe;                ///< Ren 2019 Sec. 3.3.2
+  DistanceGateConfig gate;                ///< Vlaminck 2019 Sec. 4, Ren 2019 Sec. 3.4.1
+  M2dpConfig m2dp;                        ///< Vlaminck 2019 Sec. 4.1 (l=8, t=16, p=4, q=16)
+  PrepareConfig prepare;                  ///< downsampling + segmentation of a keyframe
+  VerifyConfig verify;                    ///< Vlaminck 2019 Sec. 4.2-4.3
   double max_descriptor_distance = 0.35;  ///< candidates above this M2DP distance are not verified
   int max_candidates_per_keyframe = 3;    ///< verified best first, at most this many per keyframe
   /// Within this many keyframes after an accepted loop the corrected map already knows where the query lies relative
@@ -55,16 +55,16 @@ struct LoopDetectorConfig {
   /// [m] with correction.graph.use_plane_constraints: keyframes whose ground lies in the same cell of this size
   /// observe one roadway plane node (Ren 2019, Sec. 3.4.2); a town's ground is only locally planar.
   double plane_cell_size = 40.0;
-  LoopCorrectorConfig correction;      ///< Vlaminck 2019 Sec. 4.4 / Ren 2019 Sec. 3.4.3
+  LoopCorrectorConfig correction;  ///< Vlaminck 2019 Sec. 4.4 / Ren 2019 Sec. 3.4.3
   std::optional<std::string> validate() const;
 };
 
 /// @brief A keyframe as handed to the sequential stage.
 struct KeyframeInput {
-  KeyframeKey key;          ///< the engine numbers a session's keyframes from 0
-  std::int64_t utime = 0;   ///< scan time [us]
+  KeyframeKey key;         ///< the engine numbers a session's keyframes from 0
+  std::int64_t utime = 0;  ///< scan time [us]
   Eigen::Isometry3d T_odom_sensor = Eigen::Isometry3d::Identity();
-  double residual = 0.0;    ///< odometry residual accumulated since the previous keyframe [m]
+  double residual = 0.0;  ///< odometry residual accumulated since the previous keyframe [m]
 };
 
 /// @brief A corrected trajectory, mirrored by trajectory_t.
@@ -72,8 +72,8 @@ struct CorrectionOutput {
   std::int64_t revision = 0;
   std::int64_t loop_event_id = 0;
   std::string method;
-  std::vector<KeyframeKey> keys;              ///< every keyframe, in the order they were added
-  std::vector<std::int64_t> utimes;           ///< [us] by keys
+  std::vector<KeyframeKey> keys;                ///< every keyframe, in the order they were added
+  std::vector<std::int64_t> utimes;             ///< [us] by keys
   std::vector<Eigen::Isometry3d> T_map_sensor;  ///< corrected poses, by keys
   Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();
   CorrectorResumeState resume_state;  ///< what a map store keeps to resume correcting from this revision
@@ -167,7 +167,7 @@ class LoopDetector {
   std::int64_t revision_ = 0;
   std::int64_t loops_accepted_ = 0;
   std::int64_t loops_rejected_ = 0;
-  std::optional<KeyframeKey> last_accepted_;  ///< query of the newest accepted loop
+  std::optional<KeyframeKey> last_accepted_;    ///< query of the newest accepted loop
   std::vector<LoopConstraint> restored_loops_;  ///< accepted loops restored, handed to the corrector by resume_correction()
 };
 

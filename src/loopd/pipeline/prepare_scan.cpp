@@ -15,9 +15,11 @@ namespace loopd {
 std::optional<std::string> PrepareConfig::validate() const {
   if (!(voxel_size > 0.0)) return "PrepareConfig.voxel_size must be positive";
   if (!(min_range >= 0.0) || !(max_range > min_range)) return "PrepareConfig needs 0 <= min_range < max_range";
-  if (normal_k_neighbors != 0 && (normal_k_neighbors < 4 || normal_k_neighbors > 64)) return "PrepareConfig.normal_k_neighbors must be 0 or in [4, 64]";
+  if (normal_k_neighbors != 0 && (normal_k_neighbors < 4 || normal_k_neighbors > 64))
+    return "PrepareConfig.normal_k_neighbors must be 0 or in [4, 64]";
   if (num_threads < 1) return "PrepareConfig.num_threads must be >= 1";
-  if (!(range_image_normal_coherence >= 0.0 && range_image_normal_coherence <= 1.0)) return "PrepareConfig.range_image_normal_coherence must be in [0, 1]";
+  if (!(range_image_normal_coherence >= 0.0 && range_image_normal_coherence <= 1.0))
+    return "PrepareConfig.range_image_normal_coherence must be in [0, 1]";
   SegmentationConfig s = segmentation;
   s.min_range = min_range;
   s.max_range = max_range;
@@ -163,9 +165,8 @@ PreparedScan prepare_scan(const PointCloud& scan, const LidarModel* model, const
   // Voxel cloud (and per-voxel mean normals), capped at max_points.
   const bool have_range_normals = range_normals && out.segmentation.error.empty() && point_normals.size() == scan.size();
   std::vector<Eigen::Vector3f> voxel_normals;
-  std::vector<Eigen::Vector3f> down =
-      crop_voxel_downsample(scan.points, lo2, hi2, config.voxel_size, have_range_normals ? &point_normals : nullptr,
-                            static_cast<float>(config.range_image_normal_coherence), &voxel_normals);
+  std::vector<Eigen::Vector3f> down = crop_voxel_downsample(scan.points, lo2, hi2, config.voxel_size, have_range_normals ? &point_normals : nullptr,
+                                                            static_cast<float>(config.range_image_normal_coherence), &voxel_normals);
   point_normals = {};
   std::vector<Eigen::Vector3f> kept_normals;
   cap_points(std::move(down), std::move(voxel_normals), have_range_normals, config.max_points, &out.points, &kept_normals);

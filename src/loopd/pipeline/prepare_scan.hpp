@@ -24,9 +24,9 @@ struct LidarModel;  // loopd/core/lidar_model.hpp
 /// poles, kerbs and car bodies still get several points. On the simulated revisits 0.6 m gives final errors of a few
 /// mm / < 0.02 deg (loopd-bench gicp), far inside the 0.2 m / 1 deg acceptance; 1.0 m and up starts dropping poles.
 struct PrepareConfig {
-  double voxel_size = 0.6;   ///< [m] voxel edge for `points`
-  double min_range = 2.0;    ///< [m] drop the ego vehicle
-  double max_range = 60.0;   ///< [m] far points are sparse and barely overlap between two visits
+  double voxel_size = 0.6;        ///< [m] voxel edge for `points`
+  double min_range = 2.0;         ///< [m] drop the ego vehicle
+  double max_range = 60.0;        ///< [m] far points are sparse and barely overlap between two visits
   std::size_t max_points = 6000;  ///< cap on `points` (deterministic stride subsample beyond it; memory budget); 0: no cap
   int normal_k_neighbors = 20;    ///< neighbours for the cached GICP normals (GicpConfig::k_neighbors); 0: cache none
   /// Cached GICP normals from the segmentation's range image (computed there anyway, at full resolution): the mean of
@@ -34,7 +34,7 @@ struct PrepareConfig {
   /// mean below this) gets none, i.e. an isotropic covariance. 0: PCA of the normal_k_neighbors nearest voxel
   /// centroids instead (Ren 2019, Eq. 2; also the fallback when the segmentation failed).
   double range_image_normal_coherence = 0.8;
-  int num_threads = 2;            ///< threads for the normal estimation
+  int num_threads = 2;              ///< threads for the normal estimation
   SegmentationConfig segmentation;  ///< its own range limits are overridden by min_range / max_range
 
   /// @brief Empty when valid, otherwise what is wrong.

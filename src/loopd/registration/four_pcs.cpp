@@ -64,7 +64,9 @@ class PointTree {
     std::size_t kdtree_get_point_count() const { return pts->size(); }
     float kdtree_get_pt(std::size_t i, std::size_t d) const { return (*pts)[i][static_cast<Eigen::Index>(d)]; }
     template <class B>
-    bool kdtree_get_bbox(B&) const { return false; }
+    bool kdtree_get_bbox(B&) const {
+      return false;
+    }
   };
   struct AnyWithin {
     float radius_sq;
@@ -108,8 +110,8 @@ struct Base {
   Eigen::Vector3f p[4];  // a, b, c, d: diagonals ab and cd cross at e
   float r1 = 0, r2 = 0;  // Eq. (1)
   float len1 = 0, len2 = 0;
-  float cos_angle = 0;   // between (b - a) and (d - c)
-  float tilt = 0;        // [rad] angle of the base plane normal from the vertical axis, folded to [0, pi/2]
+  float cos_angle = 0;  // between (b - a) and (d - c)
+  float tilt = 0;       // [rad] angle of the base plane normal from the vertical axis, folded to [0, pi/2]
   float width = 0;
   int cluster = -1;
   bool horizontal = false;
@@ -146,8 +148,8 @@ std::int64_t pose_cell(const Eigen::Isometry3d& T, double rot_step, double trans
 inline float plane_tilt(const Eigen::Vector4f& plane) { return std::acos(std::min(1.f, std::abs(plane.z()))); }
 
 // Closest points of lines a + t (b - a) and c + s (d - c); false when (nearly) parallel.
-bool line_intersection(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c, const Eigen::Vector3f& d, float* t,
-                       float* s, float* gap) {
+bool line_intersection(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c, const Eigen::Vector3f& d, float* t, float* s,
+                       float* gap) {
   const Eigen::Vector3f u = b - a, v = d - c, w = a - c;
   const float uu = u.dot(u), uv = u.dot(v), vv = v.dot(v), uw = u.dot(w), vw = v.dot(w);
   const float den = uu * vv - uv * uv;
@@ -213,7 +215,8 @@ void bases_for_cluster(const Cluster& cl, int cluster_index, const FourPcsConfig
     b.cluster = cluster_index;
     bool duplicate = false;
     for (const auto& o : *out)
-      if (o.cluster == cluster_index && (o.p[0] - b.p[0]).norm() + (o.p[1] - b.p[1]).norm() + (o.p[2] - b.p[2]).norm() + (o.p[3] - b.p[3]).norm() < 0.5f)
+      if (o.cluster == cluster_index &&
+          (o.p[0] - b.p[0]).norm() + (o.p[1] - b.p[1]).norm() + (o.p[2] - b.p[2]).norm() + (o.p[3] - b.p[3]).norm() < 0.5f)
         duplicate = true;
     if (!duplicate) out->push_back(b);
   }
@@ -265,7 +268,8 @@ std::vector<Eigen::Vector3f> lcp_sample(const std::vector<Eigen::Vector3f>& pts,
   const Cluster* ground = nullptr;
   if (cfg.lcp_exclude_ground) {
     for (const auto& cl : seg.clusters)
-      if (cl.planar && std::abs(cl.plane.z()) > kHorizontalPlaneNz && cl.centroid.z() < 0 && (ground == nullptr || cl.num_points > ground->num_points))
+      if (cl.planar && std::abs(cl.plane.z()) > kHorizontalPlaneNz && cl.centroid.z() < 0 &&
+          (ground == nullptr || cl.num_points > ground->num_points))
         ground = &cl;
   }
   std::vector<const Eigen::Vector3f*> keep;
@@ -377,7 +381,8 @@ std::vector<Pair> coplanar_pairs(const std::vector<PoolPoint>& pool, const Segme
       pairs.push_back({i, j, d});
     }
   }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.dist < b.dist || (a.dist == b.dist && (a.i < b.i || (a.i == b.i && a.j < b.j))); });
+  std::sort(pairs.begin(), pairs.end(),
+            [](const Pair& a, const Pair& b) { return a.dist < b.dist || (a.dist == b.dist && (a.i < b.i || (a.i == b.i && a.j < b.j))); });
   return pairs;
 }
 
@@ -487,9 +492,9 @@ struct RigidCheck {
     bd = (base.p[3] - base.p[1]).norm();
     cross_tol = 2.f * tol.pair_tol;
   }
-  float cos_hi = 0, cos_lo = 0;        // accepted range of the cosine of the angle between the diagonals
+  float cos_hi = 0, cos_lo = 0;          // accepted range of the cosine of the angle between the diagonals
   float ac = 0, ad = 0, bc = 0, bd = 0;  // [m] cross distances of the base
-  float cross_tol = 0;                 // [m]
+  float cross_tol = 0;                   // [m]
 };
 
 // Buffers of the per-base search, reused from base to base.
@@ -619,8 +624,8 @@ void prescore(const std::vector<Candidate>& cands, const LcpScoring& lcp, const 
 
 // Steps 2-3 for the bases in rank order: congruent sets, one transform each, prescored; no further bases once a
 // prescore fraction reaches early_stop_prescore.
-CongruentSets collect_congruent_sets(const std::vector<Base>& bases, const TargetPairs& target, const LcpScoring& lcp,
-                                     const SearchTolerances& tol, const FourPcsConfig& cfg, int* bases_tried) {
+CongruentSets collect_congruent_sets(const std::vector<Base>& bases, const TargetPairs& target, const LcpScoring& lcp, const SearchTolerances& tol,
+                                     const FourPcsConfig& cfg, int* bases_tried) {
   CongruentSets sets;
   BaseScratch scratch;
   for (const Base& base : bases) {
@@ -677,7 +682,8 @@ FullScores full_lcp_scores(const CongruentSets& sets, const LcpScoring& lcp, con
   }
   for (std::size_t oi = 0; oi < order.size(); ++oi)
     if (full[oi] >= 0) s.leaders.push_back(static_cast<int>(oi));
-  std::stable_sort(s.leaders.begin(), s.leaders.end(), [&](int x, int y) { return full[static_cast<std::size_t>(x)] > full[static_cast<std::size_t>(y)]; });
+  std::stable_sort(s.leaders.begin(), s.leaders.end(),
+                   [&](int x, int y) { return full[static_cast<std::size_t>(x)] > full[static_cast<std::size_t>(y)]; });
   s.leaders.resize(std::min(s.leaders.size(), static_cast<std::size_t>(std::max(1, cfg.refine_candidates))));
   return s;
 }
@@ -762,8 +768,7 @@ std::optional<std::string> FourPcsConfig::validate() const {
 }
 
 FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, const Segmentation& source_seg,
-                             const std::vector<Eigen::Vector3f>& target_points, const Segmentation& target_seg,
-                             const FourPcsConfig& cfg) {
+                             const std::vector<Eigen::Vector3f>& target_points, const Segmentation& target_seg, const FourPcsConfig& cfg) {
   Stopwatch sw;
   FourPcsResult res;
   auto fail = [&](std::string reason) {

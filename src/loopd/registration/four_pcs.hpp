@@ -41,7 +41,7 @@ struct FourPcsConfig {
 /// @brief Outcome of align_four_pcs.
 struct FourPcsResult {
   bool success = false;
-  std::string reason;  ///< why there is no alignment (empty on success)
+  std::string reason;                                                 ///< why there is no alignment (empty on success)
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();  ///< maps source points into the target frame
   double lcp_fraction = 0;  ///< fraction of the scored source points (ground excluded) within delta of a target point
   int bases_tried = 0;
@@ -61,7 +61,6 @@ struct FourPcsResult {
 /// @param target_points voxel-downsampled target cloud used for LCP scoring
 /// @note Deterministic: no random sampling; the same result for any num_threads.
 FourPcsResult align_four_pcs(const std::vector<Eigen::Vector3f>& source_points, const Segmentation& source_seg,
-                             const std::vector<Eigen::Vector3f>& target_points, const Segmentation& target_seg,
-                             const FourPcsConfig& config);
+                             const std::vector<Eigen::Vector3f>& target_points, const Segmentation& target_seg, const FourPcsConfig& config);
 
 }  // namespace loopd

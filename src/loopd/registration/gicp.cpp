@@ -37,8 +37,8 @@ void finite_points(const std::vector<Eigen::Vector3f>& in, const std::vector<Eig
 
 /// Ren 2019, Eq. (2): normal = eigenvector of the smallest eigenvalue of the k-neighbour covariance.
 /// Normals at `queries` from neighbours among `points` (indexed by `tree`).
-std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3f>& queries, const std::vector<Eigen::Vector3f>& points, const KdTree3f& tree, int k,
-                                              int num_threads) {
+std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3f>& queries, const std::vector<Eigen::Vector3f>& points,
+                                              const KdTree3f& tree, int k, int num_threads) {
   std::vector<Eigen::Vector3f> normals(queries.size(), Eigen::Vector3f::Zero());
   const int n = static_cast<int>(queries.size());
 #pragma omp parallel for num_threads(num_threads) schedule(dynamic, 128)
@@ -103,8 +103,8 @@ struct Linearization {
 /// Error e_i = T s_i - q_i, M_i = (C_q + R C_s R^T)^-1, right perturbation T * Exp(w, v):
 /// de/dw = -R [s]x, de/dv = R.
 Linearization linearize(const std::vector<Eigen::Vector3f>& source, const std::vector<Eigen::Matrix3d>& source_covs,
-                        const std::vector<Eigen::Vector3f>& target, const std::vector<Eigen::Matrix3d>& target_covs,
-                        const KdTree3f& target_tree, const Eigen::Isometry3d& T, double max_distance, int num_threads) {
+                        const std::vector<Eigen::Vector3f>& target, const std::vector<Eigen::Matrix3d>& target_covs, const KdTree3f& target_tree,
+                        const Eigen::Isometry3d& T, double max_distance, int num_threads) {
   const int n = static_cast<int>(source.size());
   const int num_blocks = (n + kBlockSize - 1) / kBlockSize;
   std::vector<Linearization> blocks(static_cast<std::size_t>(num_blocks));

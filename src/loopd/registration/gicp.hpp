@@ -48,13 +48,13 @@ struct GicpResult {
   /// Units: the Mahalanobis weights use the normalised covariances diag(eps, 1, 1) [m^2], so H is information up to
   /// a scale (divide by a point noise variance to make it metric).
   Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
-  double cost = 0;           ///< final Mahalanobis cost sum (Ren 2019, Eq. 6)
-  int num_inliers = 0;       ///< correspondences within the last schedule distance
-  double degeneracy = -1;    ///< gicp_degeneracy(H): >= 1, large = ill-conditioned translation (corridor); -1 when unknown
+  double cost = 0;         ///< final Mahalanobis cost sum (Ren 2019, Eq. 6)
+  int num_inliers = 0;     ///< correspondences within the last schedule distance
+  double degeneracy = -1;  ///< gicp_degeneracy(H): >= 1, large = ill-conditioned translation (corridor); -1 when unknown
   Eigen::Vector3d weakest_direction = Eigen::Vector3d::Zero();  ///< translation direction (source frame) with least information
-  double ms = 0;             ///< [ms] wall time including covariance estimation
-  double ms_covariances = 0; ///< [ms] of which: k-d trees and per-point covariances
-  std::string reason;        ///< why converged is false (empty otherwise)
+  double ms = 0;                                                ///< [ms] wall time including covariance estimation
+  double ms_covariances = 0;                                    ///< [ms] of which: k-d trees and per-point covariances
+  std::string reason;                                           ///< why converged is false (empty otherwise)
 };
 
 /// @brief Generalized ICP: per-point covariances from k neighbours with eigenvalues replaced by (eps, 1, 1)

@@ -131,7 +131,7 @@ PcaSolver fit_pca(const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3d
   cov /= cl->num_points;
   cl->centroid = mean.cast<float>();
   PcaSolver es(cov);
-  const Eigen::Vector3d ev = es.eigenvalues().cwiseMax(0.0);  // ascending
+  const Eigen::Vector3d ev = es.eigenvalues().cwiseMax(0.0);       // ascending
   cl->extent_major = static_cast<float>(std::sqrt(12.0 * ev(2)));  // width of a uniform strip with this variance
   cl->extent_minor = static_cast<float>(std::sqrt(12.0 * ev(1)));
   cl->planar = std::sqrt(ev(0)) < config.plane_rms_tolerance && cl->extent_minor >= config.min_plane_extent;

@@ -63,8 +63,7 @@ RingTable make_ring_table(const LidarModel& model) {
     t.lut.resize(kBins + 1);
     for (int b = 0; b <= kBins; ++b) {
       const double edge = t.lo + (b - 0.5) / static_cast<double>(t.lut_scale);
-      t.lut[to_index(b)] = static_cast<std::uint16_t>(
-          std::lower_bound(t.mids.begin(), t.mids.end(), static_cast<float>(edge)) - t.mids.begin());
+      t.lut[to_index(b)] = static_cast<std::uint16_t>(std::lower_bound(t.mids.begin(), t.mids.end(), static_cast<float>(edge)) - t.mids.begin());
     }
   } else {
     t.lut.assign(1, 0);  // a single elevation: the forward scan from 0 is exact
@@ -187,8 +186,7 @@ struct RawNormals {
 
 // Unit normal of valid pixel k = (r, c) from its horizontal and vertical tangents, facing the sensor; false when
 // degenerate.
-bool pixel_normal(const SegmentationConfig& cfg, const RangeImage& img, const std::vector<std::uint8_t>& valid, int r, int c,
-                  Eigen::Vector3f* out) {
+bool pixel_normal(const SegmentationConfig& cfg, const RangeImage& img, const std::vector<std::uint8_t>& valid, int r, int c, Eigen::Vector3f* out) {
   const int rows = img.rows, cols = img.cols;
   const std::size_t base = to_index(r) * to_index(cols);
   const std::size_t k = base + to_index(c);
@@ -196,7 +194,8 @@ bool pixel_normal(const SegmentationConfig& cfg, const RangeImage& img, const st
   const float thr = 2.f * neighbor_threshold(cfg, img.range[k]);
   const float thr2 = thr * thr;
   const Eigen::Vector3f th = tangent(img.xyz, p, thr2, nearest_in_row(valid, base, c, -1, cols), nearest_in_row(valid, base, c, +1, cols));
-  const Eigen::Vector3f tv = tangent(img.xyz, p, thr2, nearest_in_column(valid, k, r, -1, rows, cols), nearest_in_column(valid, k, r, +1, rows, cols));
+  const Eigen::Vector3f tv =
+      tangent(img.xyz, p, thr2, nearest_in_column(valid, k, r, -1, rows, cols), nearest_in_column(valid, k, r, +1, rows, cols));
   Eigen::Vector3f nrm = th.cross(tv);
   const float len2 = nrm.squaredNorm();
   // |n| <= 1e-9 or |n| < 1e-3 |th| |tv| (nearly parallel tangents), in squares: one sqrt instead of three.

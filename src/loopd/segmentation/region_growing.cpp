@@ -70,7 +70,7 @@ class RegionGrower {
       const int kk = rr * cols + cc;
       const auto skk = to_index(kk);
       if (label_[skk] >= 0 || !growable_[skk]) return;
-      if (img_.normal[skk].dot(n) < cos_normal_) return;      // comparator 2
+      if (img_.normal[skk].dot(n) < cos_normal_) return;     // comparator 2
       if ((img_.xyz[skk] - p).squaredNorm() > thr2) return;  // comparator 1
       label_[skk] = id;
       stack_.push_back(Pixel{kk, rr, cc});
@@ -80,21 +80,29 @@ class RegionGrower {
     const int base = px.r * cols;
     {
       const int c1 = wrap(px.c + 1, cols), c2 = wrap(px.c + 2, cols);
-      if (occupied(base + c1)) visit(px.r, c1);
-      else if (occupied(base + c2)) visit(px.r, c2);
+      if (occupied(base + c1))
+        visit(px.r, c1);
+      else if (occupied(base + c2))
+        visit(px.r, c2);
     }
     {
       const int c1 = wrap(px.c - 1, cols), c2 = wrap(px.c - 2, cols);
-      if (occupied(base + c1)) visit(px.r, c1);
-      else if (occupied(base + c2)) visit(px.r, c2);
+      if (occupied(base + c1))
+        visit(px.r, c1);
+      else if (occupied(base + c2))
+        visit(px.r, c2);
     }
     if (px.r + 1 < rows) {
-      if (occupied(base + cols + px.c)) visit(px.r + 1, px.c);
-      else if (px.r + 2 < rows && occupied(base + 2 * cols + px.c)) visit(px.r + 2, px.c);
+      if (occupied(base + cols + px.c))
+        visit(px.r + 1, px.c);
+      else if (px.r + 2 < rows && occupied(base + 2 * cols + px.c))
+        visit(px.r + 2, px.c);
     }
     if (px.r >= 1) {
-      if (occupied(base - cols + px.c)) visit(px.r - 1, px.c);
-      else if (px.r >= 2 && occupied(base - 2 * cols + px.c)) visit(px.r - 2, px.c);
+      if (occupied(base - cols + px.c))
+        visit(px.r - 1, px.c);
+      else if (px.r >= 2 && occupied(base - 2 * cols + px.c))
+        visit(px.r - 2, px.c);
     }
   }
 

@@ -37,8 +37,7 @@ int Segmentation::num_planar() const {
   return n;
 }
 
-Segmentation segment(const PointCloud& scan, const LidarModel* model, const SegmentationConfig& config,
-                     std::vector<Eigen::Vector3f>* point_normals) {
+Segmentation segment(const PointCloud& scan, const LidarModel* model, const SegmentationConfig& config, std::vector<Eigen::Vector3f>* point_normals) {
   Stopwatch sw;
   Segmentation out;
   if (point_normals) point_normals->assign(scan.points.size(), Eigen::Vector3f::Zero());

@@ -26,8 +26,8 @@ class Rng {
 
 struct Waypoint {
   int i, j;
-  int visit;          ///< visit label of the edge that leaves this waypoint
-  bool lane_offset;   ///< the first half of the edge leaving this waypoint is driven with the lane offset
+  int visit;         ///< visit label of the edge that leaves this waypoint
+  bool lane_offset;  ///< the first half of the edge leaving this waypoint is driven with the lane offset
 };
 
 /// One lap of the route (cyclic: the last edge returns to the first waypoint).
@@ -37,18 +37,39 @@ std::vector<Waypoint> route_waypoints(const std::string& route) {
   if (route == "block") {
     // Three laps of block (0..1, 0..1), counter-clockwise; the third starts with the lane offset.
     for (int v = 0; v < 3; ++v) {
-      add(0, 0, v, v == 2); add(1, 0, v); add(1, 1, v); add(0, 1, v);
+      add(0, 0, v, v == 2);
+      add(1, 0, v);
+      add(1, 1, v);
+      add(0, 1, v);
     }
     return w;
   }
   // Visit 0: short loop around block (0..1, 0..1), counter-clockwise.
-  add(0, 0, 0); add(1, 0, 0); add(1, 1, 0); add(0, 1, 0);
+  add(0, 0, 0);
+  add(1, 0, 0);
+  add(1, 1, 0);
+  add(0, 1, 0);
   // Visit 1: long loop around (0..2, 0..2), counter-clockwise: (0,0)->(1,0) again in the same direction (first half
   // 3 m to the left = lane offset), (0,1)->(0,0) again in the same direction.
-  add(0, 0, 1, true); add(1, 0, 1); add(2, 0, 1); add(2, 1, 1); add(2, 2, 1); add(1, 2, 1); add(0, 2, 1); add(0, 1, 1);
+  add(0, 0, 1, true);
+  add(1, 0, 1);
+  add(2, 0, 1);
+  add(2, 1, 1);
+  add(2, 2, 1);
+  add(1, 2, 1);
+  add(0, 2, 1);
+  add(0, 1, 1);
   // Visit 2: turn around through (0,-1), (1,-1), then block (0..1, 0..1) clockwise (opposite direction), back via (1,-1).
-  add(0, 0, 2); add(0, -1, 2); add(1, -1, 2); add(1, 0, 2); add(0, 0, 2); add(0, 1, 2); add(1, 1, 2); add(1, 0, 2);
-  add(1, -1, 2); add(0, -1, 2);
+  add(0, 0, 2);
+  add(0, -1, 2);
+  add(1, -1, 2);
+  add(1, 0, 2);
+  add(0, 0, 2);
+  add(0, 1, 2);
+  add(1, 1, 2);
+  add(1, 0, 2);
+  add(1, -1, 2);
+  add(0, -1, 2);
   return w;
 }
 
@@ -139,7 +160,8 @@ std::optional<std::string> DriveConfig::validate() const {
   if (!(rate_hz > 0.0 && rate_hz <= 100.0)) return std::string("rate_hz must be in (0, 100]");
   if (!(sensor_height > 0.2)) return std::string("sensor_height must be > 0.2 m");
   if (!(corner_radius >= 3.0 && corner_radius <= 15.0)) return std::string("corner_radius must be in [3, 15] m");
-  if (std::abs(lane_lateral) > 5.0 || std::abs(lane_lateral + lane_offset) > 5.5) return std::string("lane positions must stay on the road (|lateral| <= 5 m)");
+  if (std::abs(lane_lateral) > 5.0 || std::abs(lane_lateral + lane_offset) > 5.5)
+    return std::string("lane positions must stay on the road (|lateral| <= 5 m)");
   if (scale_bias <= -0.5 || scale_bias >= 0.5) return std::string("scale_bias must be in (-0.5, 0.5)");
   if (yaw_random_walk_deg < 0 || translation_noise < 0 || pitch_roll_noise_deg < 0) return std::string("noise sigmas must be >= 0");
   if (burst_probability < 0 || burst_probability > 1 || burst_length < 0 || burst_factor < 1) return std::string("bad burst settings");

@@ -23,19 +23,19 @@ namespace loopd {
 /// A 1000-scan drive at 1 m per scan covers visits 0, 1 and the first opposite-direction edge; a lap is ~1.37 km.
 /// Parked cars marked movable change state with the visit (later laps continue counting visits: lap * 3 + v).
 struct DriveConfig {
-  std::string sensor = "hdl64";      ///< lidar model name (lidar_model_from_name)
+  std::string sensor = "hdl64";  ///< lidar model name (lidar_model_from_name)
   /// Route: "town" (the three-visit lap above) or "block" (the short block loop driven again and again in the same
   /// direction, cars changing with every lap, the third lap starting in the lane-offset position): many revisits in
   /// few scans, for end-to-end tests and the demo.
   std::string route = "town";
   int num_scans = 1000;
-  std::uint64_t seed = 1;            ///< town, noise and odometry drift seed
-  double speed = 10.0;               ///< [m/s]
-  double rate_hz = 10.0;             ///< scan rate [Hz]
-  double sensor_height = 1.8;        ///< [m] above the ground
-  double lane_lateral = -2.0;        ///< [m] usual lane: left of the street centre line (negative = right)
-  double lane_offset = 3.0;          ///< [m] extra lateral offset on the lane-offset stretch
-  double corner_radius = 9.0;        ///< [m] corner rounding at intersections
+  std::uint64_t seed = 1;                       ///< town, noise and odometry drift seed
+  double speed = 10.0;                          ///< [m/s]
+  double rate_hz = 10.0;                        ///< scan rate [Hz]
+  double sensor_height = 1.8;                   ///< [m] above the ground
+  double lane_lateral = -2.0;                   ///< [m] usual lane: left of the street centre line (negative = right)
+  double lane_offset = 3.0;                     ///< [m] extra lateral offset on the lane-offset stretch
+  double corner_radius = 9.0;                   ///< [m] corner rounding at intersections
   std::int64_t start_utime = 1700000000000000;  ///< [us]
   // Odometry drift (applied to ground-truth increments).
   double heading_bias_deg_per_100m = 0.5;  ///< systematic yaw drift [deg / 100 m]
@@ -55,8 +55,8 @@ struct DriveScan {
   int index = 0;
   std::int64_t utime = 0;                                            ///< [us]
   Eigen::Isometry3d T_world_sensor = Eigen::Isometry3d::Identity();  ///< ground truth
-  StampedPose odometry;     ///< drifting odometry (starts at the ground truth); residual [m] of the step ending here
-  int visit = 0;            ///< visit counter (which state the movable cars are in)
+  StampedPose odometry;         ///< drifting odometry (starts at the ground truth); residual [m] of the step ending here
+  int visit = 0;                ///< visit counter (which state the movable cars are in)
   double route_distance = 0.0;  ///< [m] travelled since the start
   double injected_error = 0.0;  ///< [m] random drift injected on the step ending here (translation + 10 m * yaw)
   bool degraded = false;        ///< inside a degraded (burst) stretch

@@ -293,8 +293,8 @@ double cast_ray(const Town& town, const Eigen::Vector3d& origin, const Eigen::Ve
   return h.prim == kNone ? kInf : h.t;
 }
 
-PointCloud simulate_scan(const Town& town, const LidarModel& model, const Eigen::Isometry3d& T_world_sensor, std::uint64_t seed,
-                         int num_threads, int visit) {
+PointCloud simulate_scan(const Town& town, const LidarModel& model, const Eigen::Isometry3d& T_world_sensor, std::uint64_t seed, int num_threads,
+                         int visit) {
   PointCloud cloud;
   cloud.num_rings = model.num_rings;
   if (model.validate()) return cloud;

@@ -19,8 +19,8 @@ namespace loopd {
 /// @param seed noise seed; a drive uses a hash of (drive seed, scan index).
 /// @param num_threads OpenMP threads (<= 0: OpenMP default).
 /// @param visit the visit whose movable objects (parked cars) are shown; 0 = original layout.
-PointCloud simulate_scan(const Town& town, const LidarModel& model, const Eigen::Isometry3d& T_world_sensor, std::uint64_t seed,
-                         int num_threads, int visit = 0);
+PointCloud simulate_scan(const Town& town, const LidarModel& model, const Eigen::Isometry3d& T_world_sensor, std::uint64_t seed, int num_threads,
+                         int visit = 0);
 
 /// @brief Range [m] of the first surface along a world ray (no noise); +inf when nothing is hit within max_range.
 double cast_ray(const Town& town, const Eigen::Vector3d& origin, const Eigen::Vector3d& unit_direction, double max_range, int visit = 0);

@@ -84,8 +84,8 @@ class TownBuilder {
     const double shift = 0.05 * len;  // cabin slightly behind the centre
     const Eigen::Vector3d half_cabin = along_x ? Eigen::Vector3d(cl, cw, 0) : Eigen::Vector3d(cw, cl, 0);
     const Eigen::Vector3d cabin_c = along_x ? Eigen::Vector3d(x - shift, y, 0) : Eigen::Vector3d(x, y - shift, 0);
-    Primitive cabin = make_box(cabin_c + Eigen::Vector3d(0, 0, g + 1.0) - half_cabin,
-                               cabin_c + Eigen::Vector3d(0, 0, g + height) + half_cabin, refl * 0.6f);
+    Primitive cabin =
+        make_box(cabin_c + Eigen::Vector3d(0, 0, g + 1.0) - half_cabin, cabin_c + Eigen::Vector3d(0, 0, g + height) + half_cabin, refl * 0.6f);
     body.movable_id = cabin.movable_id = movable_id;
     body.variant = cabin.variant = variant;
     t_.primitives.push_back(body);
@@ -245,7 +245,7 @@ class TownBuilder {
       const double u_lo = along_x ? kx0 : ky0, u_hi = along_x ? kx1 : ky1;
       const double kerb = side == 0 ? ky0 : side == 1 ? kx1 : side == 2 ? ky1 : kx0;
       const double out = (side == 0 || side == 3) ? -1.0 : 1.0;  // direction from the block to the road
-      auto at = [&](double u, double off) {  // point at u along the side, `off` metres from the kerb (+ = into road)
+      auto at = [&](double u, double off) {                      // point at u along the side, `off` metres from the kerb (+ = into road)
         return along_x ? Eigen::Vector2d(u, kerb + out * off) : Eigen::Vector2d(kerb + out * off, u);
       };
       // Poles 0.6 m behind the kerb.
@@ -315,8 +315,8 @@ bool Town::has_node(int i, int j) const {
 
 int Town::active_variant(int movable_id, int visit) const {
   if (movable_id < 0 || visit <= 0) return 0;
-  const std::uint64_t h = detail::hash_combine(detail::hash_combine(config.seed, static_cast<std::uint64_t>(movable_id)),
-                                               static_cast<std::uint64_t>(visit));
+  const std::uint64_t h =
+      detail::hash_combine(detail::hash_combine(config.seed, static_cast<std::uint64_t>(movable_id)), static_cast<std::uint64_t>(visit));
   return static_cast<int>(h % static_cast<std::uint64_t>(num_variants));
 }
 

@@ -10,20 +10,20 @@ namespace loopd {
 /// @brief Settings of the procedural town. Everything is derived from `seed`: the same config gives the same town.
 struct TownConfig {
   std::uint64_t seed = 1;
-  int blocks_x = 8;                  ///< blocks along x; street lines are numbered -3 .. blocks_x-3 (node 0 at x = 0)
-  int blocks_y = 8;                  ///< blocks along y; likewise
-  double min_block = 50.0;           ///< [m] street-centre to street-centre spacing, lower bound
-  double max_block = 75.0;           ///< [m] upper bound
-  double road_width = 12.0;          ///< [m] kerb to kerb (two 4 m lanes + two 2 m parking lanes)
-  double sidewalk_width = 3.5;       ///< [m]
-  double kerb_height = 0.15;         ///< [m] sidewalks/blocks are raised by this much above the road
-  double slope_x = 0.012;            ///< ground slope dz/dx (gentle, 1.2 %)
-  double slope_y = -0.008;           ///< ground slope dz/dy
-  double park_fraction = 0.15;       ///< share of blocks that are parks (wall + trees)
-  double lot_fraction = 0.10;        ///< share of blocks that are parking lots (low wall, cars, poles)
-  double car_occupancy = 0.5;        ///< probability that a kerb-side parking slot holds a car
-  double movable_fraction = 0.5;     ///< share of parked cars that move or vanish between visits
-  double cell_size = 4.0;            ///< [m] edge of the 2D spatial-index cells
+  int blocks_x = 8;               ///< blocks along x; street lines are numbered -3 .. blocks_x-3 (node 0 at x = 0)
+  int blocks_y = 8;               ///< blocks along y; likewise
+  double min_block = 50.0;        ///< [m] street-centre to street-centre spacing, lower bound
+  double max_block = 75.0;        ///< [m] upper bound
+  double road_width = 12.0;       ///< [m] kerb to kerb (two 4 m lanes + two 2 m parking lanes)
+  double sidewalk_width = 3.5;    ///< [m]
+  double kerb_height = 0.15;      ///< [m] sidewalks/blocks are raised by this much above the road
+  double slope_x = 0.012;         ///< ground slope dz/dx (gentle, 1.2 %)
+  double slope_y = -0.008;        ///< ground slope dz/dy
+  double park_fraction = 0.15;    ///< share of blocks that are parks (wall + trees)
+  double lot_fraction = 0.10;     ///< share of blocks that are parking lots (low wall, cars, poles)
+  double car_occupancy = 0.5;     ///< probability that a kerb-side parking slot holds a car
+  double movable_fraction = 0.5;  ///< share of parked cars that move or vanish between visits
+  double cell_size = 4.0;         ///< [m] edge of the 2D spatial-index cells
   std::optional<std::string> validate() const;
 };
 
@@ -40,8 +40,8 @@ struct Primitive {
   PrimitiveType type = PrimitiveType::kBox;
   Eigen::Vector3d a = Eigen::Vector3d::Zero();
   Eigen::Vector3d b = Eigen::Vector3d::Zero();
-  double radius = 0.0;        ///< [m] cylinder / sphere
-  float reflectivity = 0.3f;  ///< in [0, 1]; intensity = reflectivity * (0.3 + 0.7 |cos incidence|)
+  double radius = 0.0;           ///< [m] cylinder / sphere
+  float reflectivity = 0.3f;     ///< in [0, 1]; intensity = reflectivity * (0.3 + 0.7 |cos incidence|)
   std::int32_t movable_id = -1;  ///< -1: static; else index of the movable object this primitive belongs to
   std::int32_t variant = 0;      ///< which state of the movable object this primitive shows
   bool windows = false;          ///< box facade with a window grid (glass: most returns lost) above its ground floor
@@ -110,8 +110,7 @@ Town make_corridor(const CorridorConfig& config = {});
 /// 2 = -x/west, 3 = -y/south), `along` metres from the node, `lateral` metres to the left of the street centre line
 /// (driving lane: -2), `sensor_height` above the ground; z axis along the ground normal, x axis forward.
 /// For the corridor (no streets) the pose is at (along, lateral) heading +x.
-Eigen::Isometry3d street_pose(const Town& town, int i, int j, int direction, double along, double lateral = -2.0,
-                              double sensor_height = 1.8);
+Eigen::Isometry3d street_pose(const Town& town, int i, int j, int direction, double along, double lateral = -2.0, double sensor_height = 1.8);
 
 /// @brief Sensor pose at planar (x, y) with heading yaw [rad], `sensor_height` above the town's ground, z along the
 /// ground normal.

@@ -68,7 +68,8 @@ ClusterConsistencyResult cluster_consistency(const Segmentation& query, const Se
   // distance so that a pair that cannot match anyway never displaces a good one.
   Eigen::MatrixXd cost(r.num_query, r.num_match);
   for (int i = 0; i < r.num_query; ++i)
-    for (int j = 0; j < r.num_match; ++j) cost(i, j) = std::min((q[static_cast<std::size_t>(i)] - m[static_cast<std::size_t>(j)]).norm(), config.match_distance);
+    for (int j = 0; j < r.num_match; ++j)
+      cost(i, j) = std::min((q[static_cast<std::size_t>(i)] - m[static_cast<std::size_t>(j)]).norm(), config.match_distance);
   const Assignment a = hungarian_assign(cost);
   double sum = 0.0;
   for (int i = 0; i < r.num_query; ++i) {

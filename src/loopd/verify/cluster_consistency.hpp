@@ -24,11 +24,11 @@ namespace loopd {
 ///    visits (parked cars) leave extra unmatched clusters on one or both sides; dividing by the smaller set and
 ///    accepting a share below 1 keeps a true loop alive as long as most of the static objects agree.
 struct ClusterConsistencyConfig {
-  double match_distance = 1.5;       ///< [m] centroid distance for a match (a car seen from the other side shifts ~1 m)
-  double max_cluster_extent = 8.0;   ///< [m] clusters with a larger principal extent are not used (rule 1)
-  int min_cluster_points = 15;       ///< clusters with fewer member points are not used (noise)
-  double max_range = 45.0;           ///< [m] common-field-of-view radius around both sensor origins (rule 2)
-  int min_clusters = 3;              ///< fewer usable clusters on the smaller side: consistency cannot be judged
+  double match_distance = 1.5;      ///< [m] centroid distance for a match (a car seen from the other side shifts ~1 m)
+  double max_cluster_extent = 8.0;  ///< [m] clusters with a larger principal extent are not used (rule 1)
+  int min_cluster_points = 15;      ///< clusters with fewer member points are not used (noise)
+  double max_range = 45.0;          ///< [m] common-field-of-view radius around both sensor origins (rule 2)
+  int min_clusters = 3;             ///< fewer usable clusters on the smaller side: consistency cannot be judged
 
   /// @brief Empty when valid, otherwise what is wrong.
   std::optional<std::string> validate() const;
@@ -36,12 +36,12 @@ struct ClusterConsistencyConfig {
 
 /// @brief Outcome of cluster_consistency.
 struct ClusterConsistencyResult {
-  double consistency = -1;  ///< matched / min(num_query, num_match); -1 when it cannot be judged
-  int num_query = 0;        ///< usable query clusters
-  int num_match = 0;        ///< usable match clusters
-  int num_matched = 0;      ///< pairs within match_distance
+  double consistency = -1;    ///< matched / min(num_query, num_match); -1 when it cannot be judged
+  int num_query = 0;          ///< usable query clusters
+  int num_match = 0;          ///< usable match clusters
+  int num_matched = 0;        ///< pairs within match_distance
   double mean_distance = -1;  ///< [m] mean centroid distance of the matched pairs
-  std::string reason;       ///< non-empty when consistency is -1
+  std::string reason;         ///< non-empty when consistency is -1
 };
 
 /// @brief Matches the usable clusters of `query` (mapped by T_match_query) against those of `match`.

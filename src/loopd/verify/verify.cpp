@@ -115,12 +115,18 @@ void refine_and_check(const PreparedScan& query, const PreparedScan& match, cons
 
 std::string to_string(VerifyStage stage) {
   switch (stage) {
-    case VerifyStage::kInput: return "input";
-    case VerifyStage::kFourPcs: return "fourpcs";
-    case VerifyStage::kGicp: return "gicp";
-    case VerifyStage::kDegeneracy: return "degeneracy";
-    case VerifyStage::kHungarian: return "hungarian";
-    case VerifyStage::kAccepted: return "accepted";
+    case VerifyStage::kInput:
+      return "input";
+    case VerifyStage::kFourPcs:
+      return "fourpcs";
+    case VerifyStage::kGicp:
+      return "gicp";
+    case VerifyStage::kDegeneracy:
+      return "degeneracy";
+    case VerifyStage::kHungarian:
+      return "hungarian";
+    case VerifyStage::kAccepted:
+      return "accepted";
   }
   return "unknown";
 }

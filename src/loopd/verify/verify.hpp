@@ -22,18 +22,18 @@ std::string to_string(VerifyStage stage);
 /// Ren 2019 Eq. 3; the other values are ours, calibrated on simulated HDL-64E revisits vs near misses
 /// (test/verify/test_verify.cpp) with PrepareConfig's 0.6 m voxels.
 struct VerifyConfig {
-  FourPcsConfig four_pcs;  ///< global alignment (delta = 0.5 m, Vlaminck 2019 Sec. 5.2)
-  GicpConfig gicp;         ///< refinement started from the 4PCS estimate
-  int min_points = 200;    ///< fewer voxel points in either scan: rejected at kInput
+  FourPcsConfig four_pcs;         ///< global alignment (delta = 0.5 m, Vlaminck 2019 Sec. 5.2)
+  GicpConfig gicp;                ///< refinement started from the 4PCS estimate
+  int min_points = 200;           ///< fewer voxel points in either scan: rejected at kInput
   double min_lcp_fraction = 0.5;  ///< 4PCS largest-common-point-set share needed to go on (true sim loops 0.67-0.93)
   /// [m] GICP residual (mean corresponding-point distance within the last schedule distance, 0.6 m). ~0.2 m on true
   /// loops at 0.6 m voxels; a uniform scatter inside the 0.6 m gate gives ~0.45 m.
   double max_icp_residual = 0.35;
-  double min_icp_fitness = 0.5;      ///< GICP inlier share needed (Vlaminck 2019: "overlap ... should be very high")
+  double min_icp_fitness = 0.5;  ///< GICP inlier share needed (Vlaminck 2019: "overlap ... should be very high")
   /// Condition number of the translational GICP information (gicp_degeneracy). Street scenes: ~2-30; a featureless
   /// tunnel: thousands.
   double max_degeneracy_ratio = 100.0;
-  bool reject_degenerate = true;     ///< false: a degenerate alignment is only flagged (VerifyResult::degenerate)
+  bool reject_degenerate = true;          ///< false: a degenerate alignment is only flagged (VerifyResult::degenerate)
   double hungarian_match_distance = 1.5;  ///< [m] centroid distance counted as the same object
   /// Share of compact clusters matched (over the smaller set). Simulated true loops with half the parked cars moved:
   /// 0.40-0.90; a different town built to the same pattern: 0.31-0.37.
@@ -52,16 +52,16 @@ struct VerifyConfig {
 /// @brief Decision and every score of verify(). Scores of stages that did not run stay at -1.
 struct VerifyResult {
   bool accepted = false;
-  VerifyStage stage = VerifyStage::kInput;  ///< stage that decided
-  std::string reason;                      ///< why rejected (or what was flagged when accepted)
-  Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();  ///< maps query points into the match frame (final estimate)
+  VerifyStage stage = VerifyStage::kInput;                                  ///< stage that decided
+  std::string reason;                                                       ///< why rejected (or what was flagged when accepted)
+  Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();          ///< maps query points into the match frame (final estimate)
   Eigen::Isometry3d T_match_query_fourpcs = Eigen::Isometry3d::Identity();  ///< the 4PCS (or given) initial estimate
   double lcp_fraction = -1;
   double icp_residual = -1;  ///< [m]
   double icp_fitness = -1;
   double hungarian_consistency = -1;
-  double degeneracy = -1;    ///< gicp_degeneracy of the final Hessian
-  bool degenerate = false;   ///< degeneracy > max_degeneracy_ratio
+  double degeneracy = -1;                                       ///< gicp_degeneracy of the final Hessian
+  bool degenerate = false;                                      ///< degeneracy > max_degeneracy_ratio
   Eigen::Vector3d weakest_direction = Eigen::Vector3d::Zero();  ///< least-constrained translation direction (query frame)
   int icp_iterations = 0;
   bool icp_converged = false;
