@@ -233,6 +233,7 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("status_period", n.status_period);
   b.field("map.path", n.map.uri);
   b.field("map.synchronous", n.map.synchronous);
+  b.field("map.cache_mb", n.map_cache_mb);
   b.field("output.trajectory_min_move", n.trajectory_output.min_move);
   b.field("output.trajectory_min_turn_deg", n.trajectory_output.min_turn_deg);
   b.field("output.trajectory_snapshot_period", n.trajectory_output.snapshot_period);

@@ -299,6 +299,7 @@ MapStatus map_status(const MapSession& map, const NodeConfig& node, const Engine
   MapStatus m;
   m.cached_bytes = s.bytes_per_keyframe * s.keyframes;
   if (!map.store) return m;
+  if (node.map_cache_mb > 0.0) m.cached_bytes = s.cached_feature_bytes;
   m.path = node.map.uri;
   const std::string file = m.path.rfind("sqlite://", 0) == 0 ? m.path.substr(9) : m.path;
   for (const std::string& f : {file, file + "-wal"}) {
@@ -342,6 +343,7 @@ std::optional<std::string> NodeConfig::validate() const {
   if (!(status_period > 0.0 && status_period <= 1e6)) return "status_period must be in (0, 1e6] [s]";
   if (!map.uri.empty())
     if (auto e = map.validate()) return "map: " + *e;
+  if (!(map_cache_mb >= 0.0 && map_cache_mb <= 1e7)) return "map.cache_mb must be in [0, 1e7] [MB]";
   if (auto e = trajectory_output.validate()) return *e;
   return std::nullopt;
 }
@@ -386,6 +388,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   EngineConfig live_config = engine_config;
   live_config.detector.parallel_candidates = true;  // spare cores shorten the latency tail; same decisions
   LoopdEngine engine(live_config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
+  if (map.store && node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
   if (!resume_from_map(map, engine, false, engine_config.detector.sensor, "live " + node.lcm_url)) return 2;
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
@@ -488,6 +491,7 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   OutputSink sink(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
   if (map.store) map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n, fault_correction_delay_ms());
   LoopdEngine engine(config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
+  if (map.store && node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
   if (!resume_from_map(map, engine, true, engine_config.detector.sensor, "replay " + input_log)) return 2;
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;

@@ -24,6 +24,9 @@ struct NodeConfig {
   bool quiet = false;              ///< no per-loop log lines
   /// The map store (map.path / --map): empty uri = everything in memory, as before.
   MapStoreConfig map;
+  /// [MB] with a map: keyframe features beyond this LRU cache live only in the map (read back for candidates);
+  /// 0: every keyframe's features stay in memory.
+  double map_cache_mb = 512.0;
   /// How much of the corrected trajectory each revision publishes (output.*).
   TrajectoryPublisherConfig trajectory_output;
   std::optional<std::string> validate() const;

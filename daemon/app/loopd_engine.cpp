@@ -143,7 +143,9 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
 }
 
 ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes) {
-  ResumeSummary r = resume_detector(store, detector_);
+  // Planes need every keyframe's segmentation back; otherwise descriptors suffice when the store keeps the features.
+  const bool thin = features_in_store_ && !config_.detector.correction.graph.use_plane_constraints;
+  ResumeSummary r = resume_detector(store, detector_, thin ? KeyframeLoad::kDescriptor : KeyframeLoad::kFull);
   if (!r.ok) return r;
   next_keyframe_index_ = r.next_index;
   stored_utimes_ = r.utimes;
@@ -154,6 +156,15 @@ ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes) {
   stats_.loops_accepted = detector_.loops_accepted();
   stats_.loops_rejected = detector_.loops_rejected();
   return r;
+}
+
+void LoopdEngine::keep_features_in_store(MapStore& store, std::size_t cache_bytes) {
+  features_in_store_ = true;
+  detector_.keep_features_in_store(cache_bytes, [&store](const KeyframeKey& key) -> std::optional<PreparedScan> {
+    StoreResult<PreparedScan> read = store.get_prepared(key);
+    if (!read.ok()) return std::nullopt;
+    return std::move(read.value);
+  });
 }
 
 bool LoopdEngine::skip_if_stored(std::int64_t utime) {
@@ -252,6 +263,7 @@ void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shar
       stats_.loops_accepted = detector_.loops_accepted();
       stats_.loops_rejected = detector_.loops_rejected();
       stats_.bytes_per_keyframe = static_cast<std::int64_t>(detector_.bytes_per_keyframe());
+      stats_.cached_feature_bytes = static_cast<std::int64_t>(detector_.cached_feature_bytes());
       T_map_odom_ = detector_.T_map_odom();
     }
     lock.lock();

@@ -61,11 +61,12 @@ struct EngineStats {
   int pending_scans = 0;
   std::int64_t loops_accepted = 0, loops_rejected = 0;
   std::int64_t bytes_per_keyframe = 0;
-  std::int64_t scans_lost_estimate = 0;  ///< scans that never arrived (ScanLossEstimator)
-  double scan_loss_fraction = 0.0;       ///< lost / (received + lost)
-  std::int64_t clock_jumps = 0;          ///< data clock jumps followed (scan or pose channel, whichever saw more)
-  std::int64_t odometry_resets = 0;      ///< odometry resets bridged (OdometryResetFilter)
-  std::int64_t sensor_changes = 0;       ///< sensor layout changes (SensorLayoutWatch)
+  std::int64_t cached_feature_bytes = 0;  ///< with the map store keeping features: bytes in the LRU cache
+  std::int64_t scans_lost_estimate = 0;   ///< scans that never arrived (ScanLossEstimator)
+  double scan_loss_fraction = 0.0;        ///< lost / (received + lost)
+  std::int64_t clock_jumps = 0;           ///< data clock jumps followed (scan or pose channel, whichever saw more)
+  std::int64_t odometry_resets = 0;       ///< odometry resets bridged (OdometryResetFilter)
+  std::int64_t sensor_changes = 0;        ///< sensor layout changes (SensorLayoutWatch)
   std::string device;
 };
 
@@ -95,6 +96,9 @@ class LoopdEngine {
   /// stored ones; corrections the stop cut off are made again and go to the sink). With skip_stored_keyframes (replay
   /// of the same drive) the keyframes the map already holds are recognised by their scan times and not processed again.
   ResumeSummary resume(MapStore& store, bool skip_stored_keyframes);
+  /// @brief Before any input and resume(): keyframe features live in `store` and in an LRU cache of `cache_bytes`
+  /// (the sequential stage reads candidates back; the store must then be used from that stage only).
+  void keep_features_in_store(MapStore& store, std::size_t cache_bytes);
   /// @brief Keyframes recognised as already in the map and skipped (replay resume).
   std::int64_t keyframes_skipped() const { return keyframes_skipped_.load(); }
 
@@ -134,6 +138,7 @@ class LoopdEngine {
   std::vector<std::int64_t> stored_utimes_;  ///< resume: scan times of the stored keyframes, in order
   std::size_t next_stored_ = 0;              ///< resume: next stored keyframe to recognise
   bool skip_stored_ = false;
+  bool features_in_store_ = false;
   std::atomic<std::int64_t> keyframes_skipped_{0};
   double residual_since_keyframe_ = 0.0;
 

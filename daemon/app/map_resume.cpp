@@ -54,7 +54,7 @@ std::optional<std::string> restore_decisions(const KeyframeKey& query, const std
 
 }  // namespace
 
-ResumeSummary resume_detector(MapStore& store, LoopDetector& detector) {
+ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeLoad load) {
   Stopwatch sw;
   ResumeSummary summary;
   const StoreResult<std::int64_t> dropped = store.drop_undecided();
@@ -72,8 +72,13 @@ ResumeSummary resume_detector(MapStore& store, LoopDetector& detector) {
 
   std::size_t next_loop = 0;
   std::optional<std::string> failure;
-  const StoreStatus read = store.for_each_keyframe(std::nullopt, KeyframeLoad::kFull, [&](MapKeyframe&& k) {
+  const StoreStatus read = store.for_each_keyframe(std::nullopt, load, [&](MapKeyframe&& k) {
     if (failure) return;
+    if (load != KeyframeLoad::kFull && k.record.features) {
+      auto thin = std::make_shared<KeyframeFeatures>(*k.record.features);
+      thin->prepared_in_store = true;
+      k.record.features = std::move(thin);
+    }
     detector.restore_keyframe(k.record);
     ++summary.keyframes;
     summary.utimes.push_back(k.record.utime);

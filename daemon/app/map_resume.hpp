@@ -27,6 +27,8 @@ struct ResumeSummary {
 /// @brief Replays the map into `detector` (fresh, same configuration as when the map was made): each keyframe, then
 /// the decisions its query made; the stored correction where it was made; corrections the stop cut off made again.
 /// Keyframes whose decisions were not all stored are removed from the map first (they are processed again).
-ResumeSummary resume_detector(MapStore& store, LoopDetector& detector);
+/// @param load kFull: every keyframe's prepared scan comes back into memory; kDescriptor: only descriptors (the detector
+///        keeps its features in the store and reads candidates back, LoopDetector::keep_features_in_store).
+ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeLoad load = KeyframeLoad::kFull);
 
 }  // namespace loopd

@@ -23,6 +23,8 @@ struct KeyframeFeatures {
   double ms_prepare = 0.0;         ///< [ms]
   std::size_t input_points = 0;    ///< points in the raw scan
   std::size_t invalid_points = 0;  ///< NaN/Inf points removed
+  /// The prepared scan is not held here (`prepared` is empty): it is in the map store and read back on demand.
+  bool prepared_in_store = false;
 
   /// @brief Heap + object footprint [bytes] of the descriptor and the prepared scan.
   std::size_t bytes() const { return prepared.bytes() + static_cast<std::size_t>(descriptor.size()) * sizeof(float); }

@@ -66,9 +66,10 @@ KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
 /// order wins and later ones are not reported. Reads nothing that changes while it runs (guesses are made up front).
 class LoopDetector::CandidateVerifications {
  public:
-  CandidateVerifications(const PreparedScan& query, std::vector<const PreparedScan*> matches, std::vector<std::optional<Eigen::Isometry3d>> guesses,
+  using Features = std::shared_ptr<const KeyframeFeatures>;
+  CandidateVerifications(Features query, std::vector<Features> matches, std::vector<std::optional<Eigen::Isometry3d>> guesses,
                          const VerifyConfig& config, bool concurrent)
-      : query_(query), matches_(std::move(matches)), guesses_(std::move(guesses)), config_(config), pending_(matches_.size()) {
+      : query_(std::move(query)), matches_(std::move(matches)), guesses_(std::move(guesses)), config_(config), pending_(matches_.size()) {
     if (!concurrent) return;
     for (std::size_t i = 1; i < matches_.size(); ++i) pending_[i] = std::async(std::launch::async, [this, i] { return run(i); });
   }
@@ -78,10 +79,17 @@ class LoopDetector::CandidateVerifications {
   VerifyResult get(std::size_t i) { return pending_[i].valid() ? pending_[i].get() : run(i); }
 
  private:
-  VerifyResult run(std::size_t i) const { return verify_candidate(query_, *matches_[i], guesses_[i], config_); }
+  VerifyResult run(std::size_t i) const {
+    if (!query_ || !matches_[i]) {
+      VerifyResult unreadable;
+      unreadable.reason = "the keyframe's features could not be read back from the map store";
+      return unreadable;
+    }
+    return verify_candidate(query_->prepared, matches_[i]->prepared, guesses_[i], config_);
+  }
 
-  const PreparedScan& query_;
-  std::vector<const PreparedScan*> matches_;
+  Features query_;  ///< held: a cache eviction while the verifications run frees nothing they use
+  std::vector<Features> matches_;
   std::vector<std::optional<Eigen::Isometry3d>> guesses_;
   const VerifyConfig& config_;
   std::vector<std::future<VerifyResult>> pending_;
@@ -91,18 +99,37 @@ LoopDetector::CandidateVerifications LoopDetector::start_verifications(const Key
                                                                        std::size_t count, const Eigen::Isometry3d& T_map_query) const {
   // Right after an accepted loop the corrected map is locally consistent: its relative pose is the guess.
   const bool from_map = guided(query.key);
-  std::vector<const PreparedScan*> matches;
+  std::vector<CandidateVerifications::Features> matches;
   std::vector<std::optional<Eigen::Isometry3d>> guesses;
   for (std::size_t i = 0; i < count; ++i) {
     const KeyframeRecord& match = *ranked[i].match;
-    matches.push_back(&match.features->prepared);
+    matches.push_back(full_features(match));
     if (from_map)
       guesses.emplace_back(corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(match.key))].inverse() * T_map_query);
     else
       guesses.emplace_back(std::nullopt);
   }
-  return {query.features->prepared, std::move(matches), std::move(guesses), config_.verify, config_.parallel_candidates && !from_map};
+  return {full_features(query), std::move(matches), std::move(guesses), config_.verify, config_.parallel_candidates && !from_map};
 }
+
+std::shared_ptr<const KeyframeFeatures> LoopDetector::full_features(const KeyframeRecord& keyframe) const {
+  if (!keyframe.features || !keyframe.features->prepared_in_store) return keyframe.features;
+  if (auto cached = cache_->get(keyframe.key)) return cached;
+  std::optional<PreparedScan> prepared = load_prepared_(keyframe.key);
+  if (!prepared) return nullptr;
+  auto full = std::make_shared<KeyframeFeatures>(*keyframe.features);
+  full->prepared = std::move(*prepared);
+  full->prepared_in_store = false;
+  cache_->put(keyframe.key, full);
+  return full;
+}
+
+void LoopDetector::keep_features_in_store(std::size_t cache_bytes, PreparedLoader load_prepared) {
+  cache_ = std::make_unique<FeatureCache>(cache_bytes);
+  load_prepared_ = std::move(load_prepared);
+}
+
+std::size_t LoopDetector::cached_feature_bytes() const { return cache_ ? cache_->bytes() : 0; }
 
 const KeyframeRecord& LoopDetector::place_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
                                                    const Eigen::Isometry3d& T_map_query) {
@@ -114,6 +141,20 @@ const KeyframeRecord& LoopDetector::place_keyframe(const KeyframeInput& input, s
   record.travelled = travelled_;
   record.features = std::move(features);
   if (record.features && config_.correction.graph.use_plane_constraints) add_ground_plane(record, T_map_query);
+  if (cache_ && record.features && !record.features->prepared_in_store) {
+    // The map store holds the prepared scan: memory keeps the descriptor, the cache the newest full features.
+    cache_->put(record.key, record.features);
+    auto thin = std::make_shared<KeyframeFeatures>();
+    thin->ok = record.features->ok;
+    thin->error = record.features->error;
+    thin->descriptor = record.features->descriptor;
+    thin->ms_descriptor = record.features->ms_descriptor;
+    thin->ms_prepare = record.features->ms_prepare;
+    thin->input_points = record.features->input_points;
+    thin->invalid_points = record.features->invalid_points;
+    thin->prepared_in_store = true;
+    record.features = std::move(thin);
+  }
   return keyframes_.add(std::move(record));
 }
 
@@ -216,7 +257,11 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
   pose_index_[input.key] = corrector_.add_keyframe(input.T_odom_sensor, input.residual);
   const Eigen::Isometry3d T_map_query = corrector_.T_map_odom() * input.T_odom_sensor;
   const KeyframeRecord& query = place_keyframe(input, std::move(features), T_map_query);
-  if (on_placed) on_placed(query, T_map_query);
+  if (on_placed) {
+    KeyframeRecord placed = query;  // with its full features: what a store must keep even when memory keeps less
+    placed.features = full_features(query);
+    on_placed(placed, T_map_query);
+  }
 
   DetectorOutput out;
   if (query.features) {

@@ -17,6 +17,7 @@
 #include "loopd/keyframe/keyframe_record.hpp"
 #include "loopd/pipeline/candidate_ranking.hpp"
 #include "loopd/pipeline/distance_gate.hpp"
+#include "loopd/pipeline/feature_cache.hpp"
 #include "loopd/pipeline/keyframe_database.hpp"
 #include "loopd/pipeline/keyframe_selector.hpp"
 #include "loopd/pipeline/loop_decision.hpp"
@@ -125,6 +126,15 @@ class LoopDetector {
   /// @brief The corrector's resumable state (what the engine stores with each correction).
   CorrectorResumeState corrector_state() const { return corrector_.resume_state(); }
 
+  /// @brief Reads a keyframe's prepared scan back from where it is kept (a map store); nullopt when it cannot.
+  using PreparedLoader = std::function<std::optional<PreparedScan>(const KeyframeKey&)>;
+  /// @brief Memory bounded by a cache: keyframes keep their descriptor in memory and their prepared scans (most of
+  /// their bytes) only in an LRU cache of `cache_bytes`; a candidate's scan not in it is read with `load_prepared`
+  /// (the caller stores every keyframe before its decisions). Decisions are the same as with everything in memory.
+  void keep_features_in_store(std::size_t cache_bytes, PreparedLoader load_prepared);
+  /// @brief Bytes of full keyframe features in the cache (0 without keep_features_in_store).
+  std::size_t cached_feature_bytes() const;
+
   /// @brief Corrected pose of an odometry pose received after the newest keyframe.
   Eigen::Isometry3d T_map_odom() const;
   std::size_t num_keyframes() const;
@@ -150,6 +160,7 @@ class LoopDetector {
   std::optional<CorrectionOutput> close_loop(const KeyframeRecord& query, const RankedCandidate& match, const VerifyResult& verification,
                                              LoopDecision decision, DetectorOutput& out, const DecisionCallback& on_decided);
   CorrectionOutput correction_output(const CorrectionResult& result, std::int64_t loop_event_id, const Stopwatch& sw);
+  std::shared_ptr<const KeyframeFeatures> full_features(const KeyframeRecord& keyframe) const;
   PoseIndex pose_index(const KeyframeKey& key) const { return pose_index_.at(key); }
   bool guided(const KeyframeKey& query) const;
   LoopConstraint count_restored(const LoopDecision& decision, const Information6d& information);
@@ -167,8 +178,10 @@ class LoopDetector {
   std::int64_t revision_ = 0;
   std::int64_t loops_accepted_ = 0;
   std::int64_t loops_rejected_ = 0;
-  std::optional<KeyframeKey> last_accepted_;    ///< query of the newest accepted loop
-  std::vector<LoopConstraint> restored_loops_;  ///< accepted loops restored, handed to the corrector by resume_correction()
+  std::optional<KeyframeKey> last_accepted_;  ///< query of the newest accepted loop
+  std::vector<LoopConstraint> restored_loops_;
+  std::unique_ptr<FeatureCache> cache_;  ///< null: every keyframe keeps its full features in memory
+  PreparedLoader load_prepared_;         ///< accepted loops restored, handed to the corrector by resume_correction()
 };
 
 }  // namespace loopd
