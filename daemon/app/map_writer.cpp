@@ -9,11 +9,13 @@
 namespace loopd {
 
 void MapWriter::failed(const std::string& what, const StoreStatus& status) {
+  const bool first = !stopped_;
+  stopped_ = true;
   std::int64_t n = 0;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     n = ++stats_.failures;
-    stats_.last_error = what + ": " + status.message;
+    if (first) stats_.last_error = what + ": " + status.message;  // the write that stopped the map, and why
   }
   if (n == 1 || (n - 1) % log_every_n_ == 0)
     std::fprintf(stderr, "loopd: MAP WRITE FAILED (%lld so far): %s: %s; detection goes on in memory, what is not on disk is lost at exit\n",
@@ -22,6 +24,7 @@ void MapWriter::failed(const std::string& what, const StoreStatus& status) {
 
 void MapWriter::on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor) {
   decided_with_correction_ = false;
+  if (stopped_) return failed("keyframe " + to_string(keyframe.key), stopped_status());
   const StoreStatus s = store_.put_keyframe(MapKeyframe{keyframe, T_map_sensor});
   if (!s.ok()) return failed("keyframe " + to_string(keyframe.key), s);
   std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -29,7 +32,7 @@ void MapWriter::on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometr
 }
 
 void MapWriter::on_decision(const LoopDecision& decision) {
-  const StoreStatus s = store_.put_loop(to_loop_record(decision));
+  const StoreStatus s = stopped_ ? stopped_status() : store_.put_loop(to_loop_record(decision));
   if (s.ok()) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.decisions_written;
@@ -43,7 +46,7 @@ void MapWriter::on_correction(const CorrectionOutput& correction) {
   if (correction_delay_ms_ > 0) std::this_thread::sleep_for(std::chrono::milliseconds(correction_delay_ms_));
   // The correction and "its keyframe is decided" in one transaction: a stop between them would leave a correction
   // naming a keyframe that resume removes.
-  StoreStatus s = store_.begin();
+  StoreStatus s = stopped_ ? stopped_status() : store_.begin();
   if (s.ok()) s = store_.put_correction(to_correction_record(correction));
   if (s.ok() && !correction.keys.empty()) s = store_.mark_decided(correction.keys.back());
   if (s.ok()) s = store_.commit();
@@ -52,7 +55,7 @@ void MapWriter::on_correction(const CorrectionOutput& correction) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.corrections_written;
   } else {
-    store_.rollback();
+    if (!stopped_) store_.rollback();
     failed("correction revision " + std::to_string(correction.revision), s);
   }
   next_.on_correction(correction);
@@ -60,11 +63,18 @@ void MapWriter::on_correction(const CorrectionOutput& correction) {
 
 void MapWriter::on_keyframe_decided(const KeyframeKey& keyframe) {
   if (!decided_with_correction_) {
-    const StoreStatus s = store_.mark_decided(keyframe);
+    const StoreStatus s = stopped_ ? stopped_status() : store_.mark_decided(keyframe);
     if (!s.ok()) failed("keyframe " + to_string(keyframe) + " decided", s);
   }
   decided_with_correction_ = false;
   next_.on_keyframe_decided(keyframe);
+}
+
+StoreStatus MapWriter::stopped_status() {
+  StoreStatus s;
+  s.code = StoreStatus::Code::kIo;
+  s.message = "not written: map writes stopped after an earlier refused write (restart to resume from the map)";
+  return s;
 }
 
 MapWriterStats MapWriter::stats() const {

@@ -13,12 +13,13 @@ namespace loopd {
 struct MapWriterStats {
   std::int64_t keyframes_written = 0, decisions_written = 0, corrections_written = 0;
   std::int64_t failures = 0;  ///< writes the store refused (the data stays in memory, detection goes on)
-  std::string last_error;
+  std::string last_error;  ///< the refused write that stopped the map's writes, and why
 };
 
 /// @brief An EngineSink in front of another: each keyframe, decision and correction is committed to `store` first
-/// (so anything seen on the bus is on disk), then passed on. A refused write is counted and logged (1st, (N+1)th, ...)
-/// and the result is still passed on: loopd keeps detecting in memory and says so.
+/// (so anything seen on the bus is on disk), then passed on. After a refused write the writer writes nothing more
+/// until restart, so the map stays a consistent prefix that a restart resumes from; what follows is counted as
+/// refused and logged (1st, (N+1)th, ...), and every result is still passed on: loopd keeps detecting in memory.
 class MapWriter : public EngineSink {
  public:
   /// @param correction_delay_ms fault injection for the crash test (LOOPD_FAULT_CORRECTION_DELAY_MS): widens the window
@@ -34,12 +35,14 @@ class MapWriter : public EngineSink {
 
  private:
   void failed(const std::string& what, const StoreStatus& status);
+  static StoreStatus stopped_status();
 
   MapStore& store_;
   EngineSink& next_;
   int log_every_n_;
   int correction_delay_ms_;
-  bool decided_with_correction_ = false;  ///< the correction's transaction already marked the keyframe decided
+  bool decided_with_correction_ = false;
+  bool stopped_ = false;  ///< a write was refused: nothing more is written  ///< the correction's transaction already marked the keyframe decided
   mutable std::mutex stats_mutex_;
   MapWriterStats stats_;
 };
