@@ -13,7 +13,7 @@ namespace loopd {
 struct MapWriterStats {
   std::int64_t keyframes_written = 0, decisions_written = 0, corrections_written = 0;
   std::int64_t failures = 0;  ///< writes the store refused (the data stays in memory, detection goes on)
-  std::string last_error;  ///< the refused write that stopped the map's writes, and why
+  std::string last_error;     ///< the refused write that stopped the map's writes, and why
 };
 
 /// @brief An EngineSink in front of another: each keyframe, decision and correction is committed to `store` first
