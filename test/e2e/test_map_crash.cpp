@@ -146,3 +146,37 @@ TEST_CASE("a replay on a map, killed with SIGKILL again and again, loses nothing
   CHECK(check.ok());
   fs::remove_all(dir);
 }
+
+TEST_CASE("loopd refuses a map it cannot use at start, with a clear error naming it") {
+  const fs::path dir = fs::temp_directory_path() / ("loopd_test_map_refused_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string drive = (dir / "drive.lcmlog").string();
+  int rc = 0;
+  test::run_command(kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 20 --seed 3 --route block --quiet", &rc);
+  REQUIRE(rc == 0);
+  const std::string garbage = (dir / "garbage.db").string();
+  std::ofstream(garbage) << std::string(5000, 'x');
+  // A map of a newer schema: a real map whose version is raised.
+  const std::string future = (dir / "future.db").string();
+  {
+    OpenedMapStore made = open_map_store(MapStoreConfig{future});
+    REQUIRE(made.status.ok());
+  }
+  const bool have_sqlite3 = test::run_quiet("sqlite3 " + future + " 'PRAGMA user_version = 99'") == 0;
+  struct Case {
+    std::string map, expected;
+  };
+  std::vector<Case> cases = {{garbage, "file is not a database"}, {"/proc/loopd-no-such-dir/map.db", "cannot open"}};
+  if (have_sqlite3) cases.push_back({future, "schema version 99, this loopd reads"});
+  for (const Case& c : cases) {
+    const std::string out = test::run_command(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + drive + " --map " + c.map + " 2>&1", &rc);
+    INFO(out);
+    CHECK(rc == 2);
+    CHECK(out.find("cannot use the map") != std::string::npos);
+    CHECK(out.find(c.map) != std::string::npos);
+    CHECK(out.find(c.expected) != std::string::npos);
+  }
+  CHECK(!fs::exists("/proc/loopd-no-such-dir"));
+  fs::remove_all(dir);
+}
