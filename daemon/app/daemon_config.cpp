@@ -216,6 +216,7 @@ void bind_stage_configs(Binder& b, LoopDetectorConfig& d) {
   b.field("correction.graph.odometry_translation_sigma", c.graph.odometry_translation_sigma);
   b.field("correction.graph.odometry_rotation_sigma", c.graph.odometry_rotation_sigma);
   b.field("correction.graph.max_iterations", c.graph.max_iterations);
+  b.field("correction.graph.max_nodes", c.graph.max_nodes);
   b.field("correction.graph.use_plane_constraints", c.graph.use_plane_constraints);
   b.field("correction.graph.plane_cell_size", d.plane_cell_size);
 }

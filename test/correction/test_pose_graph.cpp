@@ -6,6 +6,7 @@
 
 #include "loopd/correction/loop_corrector.hpp"
 #include "loopd/correction/pose_graph.hpp"
+#include "loopd/correction/pose_graph_internal.hpp"
 #include "loopd/correction/trajectory_tools.hpp"
 
 using namespace loopd;
@@ -294,5 +295,35 @@ TEST_CASE("graph: with a loop at every revisiting keyframe, the decimated graph 
     const auto [t, r] = loop_end_error(a.poses, l);
     CHECK(t < 0.15);
     CHECK(r < 0.5 * kDeg);
+  }
+}
+
+TEST_CASE("max_nodes bounds the graph of a long drive; the coarser graph still closes every loop", "[pose_graph]") {
+  const Scenario s = make_scenario(900, 5);
+  const std::vector<LoopConstraint> loops = find_ground_truth_loops(s.gt, 1.0, 100, 1, 0);  // dense: every revisit
+  const auto warm = correct_heuristic_all(s.odom.poses, s.odom.residuals, loops, {});
+  PoseGraphConfig capped;
+  capped.max_nodes = 200;  // every 5th keyframe: loop ends move up to 2 steps
+  const detail::NodeLayout layout = detail::choose_nodes(s.gt.size(), detail::valid_loops(loops, s.gt.size()), {}, capped);
+  CHECK(layout.anchors.size() <= 200);
+  CHECK(layout.anchors.size() >= 180);
+  CHECK(layout.anchors.back() == 899);
+  PoseGraphConfig unbounded;
+  unbounded.max_nodes = 0;
+  CHECK(detail::choose_nodes(s.gt.size(), detail::valid_loops(loops, s.gt.size()), {}, unbounded).anchors.size() == 451);  // every 2nd + last
+
+  const auto a = optimize_pose_graph(s.odom.poses, s.odom.residuals, loops, warm, capped);
+  const auto b = optimize_pose_graph(s.odom.poses, s.odom.residuals, loops, warm, unbounded);
+  const TrajectoryError before = trajectory_error(s.odom.poses, s.gt), ea = trajectory_error(a.poses, s.gt), eb = trajectory_error(b.poses, s.gt);
+  INFO("loops " << loops.size() << "; mean " << before.mean_closest << " -> " << layout.anchors.size() << " nodes " << ea.mean_closest << " m ("
+                << a.ms << " ms), 451 nodes " << eb.mean_closest << " m (" << b.ms << " ms); max difference "
+                << max_position_difference(a.poses, b.poses) << " m");
+  CHECK(ea.mean_closest < before.mean_closest / 5);
+  CHECK(ea.mean_closest <= eb.mean_closest * 1.5 + 0.05);
+  CHECK(max_position_difference(a.poses, b.poses) < 0.5);
+  for (const auto& l : loops) {  // loop ends meet through at most 2 steps of odometry
+    const auto [t, r] = loop_end_error(a.poses, l);
+    CHECK(t < 0.3);
+    CHECK(r < 1.0 * kDeg);
   }
 }

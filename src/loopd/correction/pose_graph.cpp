@@ -20,6 +20,7 @@ std::optional<std::string> PoseGraphConfig::validate() const {
   if (!(plane_normal_sigma > 0.0) || !(plane_distance_sigma > 0.0)) return "plane sigmas must be > 0";
   if (chain_stride < 0) return "chain_stride must be >= 0";
   if (loop_end_stride < 1) return "loop_end_stride must be >= 1";
+  if (max_nodes < 0 || max_nodes == 1) return "max_nodes must be 0 (no bound) or >= 2";
   if (max_iterations < 1) return "max_iterations must be >= 1";
   if (num_threads < 1) return "num_threads must be >= 1";
   if (auto err = weights.validate()) return "weights: " + *err;
@@ -232,6 +233,7 @@ PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odomet
   const NodeLayout layout = detail::choose_nodes(n, loops_in_range, planes, config);
 
   std::vector<GraphEdge> edges;
+  edges.reserve(layout.anchors.size() + loops_in_range.size());  // one allocation, no doubling copies
   add_odometry_chain_edges(odometry_poses, layout.anchors, odometry_covariance, edges);
   add_loop_edges(loops_in_range, odometry_poses, layout, config, edges);
   const std::vector<PlaneObservation> node_planes = planes_on_nodes(planes, odometry_poses, layout);

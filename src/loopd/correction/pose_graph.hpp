@@ -68,6 +68,11 @@ struct PoseGraphConfig {
   /// nearest node through its (at most loop_end_stride / 2 steps of) odometry, so the graph stays ~n/loop_end_stride
   /// nodes on long drives. 1: the full graph in that case.
   int loop_end_stride = 2;
+  /// With reduce_chains, at most this many nodes (0: no bound): when the layout above would have more, the nodes are
+  /// every k-th keyframe, k = ceil(n / max_nodes), with loop ends moved to their nearest node as for dense loop ends.
+  /// Bounds a solve's memory and time on a drive of any length (a factorisation of ~4000 nodes takes ~80 MB at the
+  /// loop density of a town revisited lap after lap); loop ends then move through at most k / 2 odometry steps.
+  int max_nodes = 4000;
 
   int max_iterations = 50;
   double function_tolerance = 1e-8;

@@ -50,19 +50,29 @@ std::vector<const LoopConstraint*> valid_loops(const std::vector<LoopConstraint>
 }
 
 /// @brief Chooses the nodes: the carrying keyframes when they are few (reduce_chains), every loop_end_stride-th
-/// keyframe when loop ends are dense, else every keyframe.
+/// keyframe when loop ends are dense, else every keyframe; with reduce_chains never more than max_nodes (a coarser
+/// stride instead).
 NodeLayout choose_nodes(std::size_t n, const std::vector<const LoopConstraint*>& loops, const std::vector<PlaneObservation>& planes,
                         const PoseGraphConfig& config) {
   NodeLayout layout;
   std::vector<int>& anchors = layout.anchors;
   anchors = carrying_keyframes(n, loops, planes, config);
   bool reduce = config.reduce_chains && anchors.size() * 2 < n;
-  // Dense loop ends: every loop_end_stride-th keyframe (and the last) is a node; loop ends and plane observations
-  // are moved to their nearest node below.
-  const bool decimate = config.reduce_chains && !reduce && config.loop_end_stride > 1 && n > 2 * static_cast<std::size_t>(config.loop_end_stride);
+  // Dense loop ends: every stride-th keyframe (and the last) is a node; loop ends and plane observations are moved to
+  // their nearest node below.
+  auto stride = static_cast<std::size_t>(config.loop_end_stride);
+  bool decimate = config.reduce_chains && !reduce && stride > 1 && n > 2 * stride;
+  const auto cap = static_cast<std::size_t>(config.max_nodes);
+  if (config.reduce_chains && cap >= 2) {
+    const std::size_t kept = reduce ? anchors.size() : decimate ? (n + stride - 1) / stride + 1 : n;
+    if (kept > cap) {  // every k-th keyframe plus the last: ceil(n / k) + 1 <= cap nodes
+      decimate = true;
+      stride = std::max(stride, (n + cap - 2) / (cap - 1));
+    }
+  }
   if (decimate) {
     anchors.clear();
-    for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(config.loop_end_stride)) anchors.push_back(static_cast<int>(i));
+    for (std::size_t i = 0; i < n; i += stride) anchors.push_back(static_cast<int>(i));
     if (anchors.back() != static_cast<int>(n) - 1) anchors.push_back(static_cast<int>(n) - 1);
     reduce = true;
   } else if (!reduce) {
