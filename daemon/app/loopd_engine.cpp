@@ -7,6 +7,8 @@
 #include <pthread.h>
 #include <string>
 
+#include "heap_release.hpp"
+
 namespace loopd {
 
 std::optional<std::string> EngineConfig::validate() const {
@@ -257,6 +259,7 @@ void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shar
         [this](const KeyframeRecord& k, const Eigen::Isometry3d& T_map_sensor) { sink_->on_keyframe(k, T_map_sensor); });
     if (out.correction) sink_->on_correction(*out.correction);
     sink_->on_keyframe_decided(item.first.key);
+    if (out.correction && out.correction->method.find("graph") != std::string::npos) release_free_heap();  // after a solve
     {
       std::lock_guard<std::mutex> s(stats_mutex_);
       stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
