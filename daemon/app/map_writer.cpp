@@ -8,6 +8,20 @@
 
 namespace loopd {
 
+template <typename Write>
+StoreStatus MapWriter::retry_busy(Write&& write) {
+  StoreStatus s = write();
+  for (int attempt = 0; s.code == StoreStatus::Code::kBusy && attempt < 3; ++attempt) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100 << (2 * attempt)));  // 0.1, 0.4, 1.6 s
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.busy_retries;
+    }
+    s = write();
+  }
+  return s;
+}
+
 void MapWriter::failed(const std::string& what, const StoreStatus& status) {
   const bool first = !stopped_;
   stopped_ = true;
@@ -25,14 +39,14 @@ void MapWriter::failed(const std::string& what, const StoreStatus& status) {
 void MapWriter::on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor) {
   decided_with_correction_ = false;
   if (stopped_) return failed("keyframe " + to_string(keyframe.key), stopped_status());
-  const StoreStatus s = store_.put_keyframe(MapKeyframe{keyframe, T_map_sensor});
+  const StoreStatus s = retry_busy([&] { return store_.put_keyframe(MapKeyframe{keyframe, T_map_sensor}); });
   if (!s.ok()) return failed("keyframe " + to_string(keyframe.key), s);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++stats_.keyframes_written;
 }
 
 void MapWriter::on_decision(const LoopDecision& decision) {
-  const StoreStatus s = stopped_ ? stopped_status() : store_.put_loop(to_loop_record(decision));
+  const StoreStatus s = stopped_ ? stopped_status() : retry_busy([&] { return store_.put_loop(to_loop_record(decision)); });
   if (s.ok()) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.decisions_written;
@@ -46,16 +60,22 @@ void MapWriter::on_correction(const CorrectionOutput& correction) {
   if (correction_delay_ms_ > 0) std::this_thread::sleep_for(std::chrono::milliseconds(correction_delay_ms_));
   // The correction and "its keyframe is decided" in one transaction: a stop between them would leave a correction
   // naming a keyframe that resume removes.
-  StoreStatus s = stopped_ ? stopped_status() : store_.begin();
-  if (s.ok()) s = store_.put_correction(to_correction_record(correction));
-  if (s.ok() && !correction.keys.empty()) s = store_.mark_decided(correction.keys.back());
-  if (s.ok()) s = store_.commit();
+  const CorrectionRecord record = to_correction_record(correction);
+  auto transaction = [&] {
+    StoreStatus s = store_.begin();
+    if (!s.ok()) return s;
+    s = store_.put_correction(record);
+    if (s.ok() && !correction.keys.empty()) s = store_.mark_decided(correction.keys.back());
+    if (s.ok()) s = store_.commit();
+    if (!s.ok()) store_.rollback();
+    return s;
+  };
+  const StoreStatus s = stopped_ ? stopped_status() : retry_busy(transaction);
   if (s.ok()) {
     decided_with_correction_ = true;
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.corrections_written;
   } else {
-    if (!stopped_) store_.rollback();
     failed("correction revision " + std::to_string(correction.revision), s);
   }
   next_.on_correction(correction);
@@ -63,7 +83,7 @@ void MapWriter::on_correction(const CorrectionOutput& correction) {
 
 void MapWriter::on_keyframe_decided(const KeyframeKey& keyframe) {
   if (!decided_with_correction_) {
-    const StoreStatus s = stopped_ ? stopped_status() : store_.mark_decided(keyframe);
+    const StoreStatus s = stopped_ ? stopped_status() : retry_busy([&] { return store_.mark_decided(keyframe); });
     if (!s.ok()) failed("keyframe " + to_string(keyframe) + " decided", s);
   }
   decided_with_correction_ = false;

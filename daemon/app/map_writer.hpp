@@ -12,14 +12,17 @@ namespace loopd {
 /// @brief What the map writer did, for status_t and the log.
 struct MapWriterStats {
   std::int64_t keyframes_written = 0, decisions_written = 0, corrections_written = 0;
-  std::int64_t failures = 0;  ///< writes the store refused (the data stays in memory, detection goes on)
-  std::string last_error;     ///< the refused write that stopped the map's writes, and why
+  std::int64_t failures = 0;      ///< writes the store refused (the data stays in memory, detection goes on)
+  std::int64_t busy_retries = 0;  ///< writes tried again because another process held the map's lock
+  std::string last_error;         ///< the refused write that stopped the map's writes, and why
 };
 
 /// @brief An EngineSink in front of another: each keyframe, decision and correction is committed to `store` first
 /// (so anything seen on the bus is on disk), then passed on. After a refused write the writer writes nothing more
 /// until restart, so the map stays a consistent prefix that a restart resumes from; what follows is counted as
 /// refused and logged (1st, (N+1)th, ...), and every result is still passed on: loopd keeps detecting in memory.
+/// A write the store answers kBusy (another process, e.g. a backup, held the lock past busy_timeout_ms) is tried again
+/// after 0.1, 0.4 and 1.6 s before it counts as refused.
 class MapWriter : public EngineSink {
  public:
   /// @param correction_delay_ms fault injection for the crash test (LOOPD_FAULT_CORRECTION_DELAY_MS): widens the window
@@ -36,13 +39,16 @@ class MapWriter : public EngineSink {
  private:
   void failed(const std::string& what, const StoreStatus& status);
   static StoreStatus stopped_status();
+  /// @brief `write()`, tried again after a pause while the store answers kBusy; the last status.
+  template <typename Write>
+  StoreStatus retry_busy(Write&& write);
 
   MapStore& store_;
   EngineSink& next_;
   int log_every_n_;
   int correction_delay_ms_;
-  bool decided_with_correction_ = false;
-  bool stopped_ = false;  ///< a write was refused: nothing more is written  ///< the correction's transaction already marked the keyframe decided
+  bool decided_with_correction_ = false;  ///< the correction's transaction already marked the keyframe decided
+  bool stopped_ = false;                  ///< a write was refused: nothing more is written
   mutable std::mutex stats_mutex_;
   MapWriterStats stats_;
 };

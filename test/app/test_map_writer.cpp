@@ -2,7 +2,9 @@
 // refuses writes, which are counted with the reason while every decision and correction still reaches the next sink.
 #include <catch2/catch.hpp>
 
+#include <chrono>
 #include <filesystem>
+#include <thread>
 #include <unistd.h>
 
 #include "loopd/map/map_store.hpp"
@@ -101,5 +103,51 @@ TEST_CASE("map writer: committed before passed on, and a full disk is counted wh
   const StoreStatus check = store.check();
   INFO(check.message);
   CHECK(check.ok());
+  fs::remove_all(dir);
+}
+
+TEST_CASE("map writer: a map locked by another process for a while is written after a pause; locked for good, it stops") {
+  const fs::path dir = fs::temp_directory_path() / ("loopd_test_map_writer_busy_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  MapStoreConfig config;
+  config.uri = (dir / "map.db").string();
+  config.busy_timeout_ms = 20;  // kBusy quickly, so the writer's own pauses are what waits
+  OpenedMapStore opened = open_map_store(config), other = open_map_store(config);
+  REQUIRE(opened.status.ok());
+  REQUIRE(other.status.ok());
+  MapStore& store = *opened.store;
+  REQUIRE(store.put_session(SessionRecord{}).ok());
+  Recorder next;
+  next.store = &store;
+  MapWriter writer(store, next, 1000);
+
+  // Another connection holds the write lock for 0.3 s: the first try and the retry after 0.1 s fail, the one after a
+  // further 0.4 s goes through.
+  REQUIRE(other.store->begin().ok());
+  std::thread holder([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    other.store->rollback();
+  });
+  writer.on_keyframe(keyframe(0, 100), Eigen::Isometry3d::Identity());
+  holder.join();
+  MapWriterStats s = writer.stats();
+  INFO(s.last_error);
+  CHECK(s.failures == 0);
+  CHECK(s.keyframes_written == 1);
+  CHECK(s.busy_retries >= 1);
+  CHECK(s.busy_retries <= 3);
+
+  // Held past all retries (0.1 + 0.4 + 1.6 s): refused as busy, and the writer stops writing.
+  REQUIRE(other.store->begin().ok());
+  writer.on_decision(decision(1, 0, true));
+  s = writer.stats();
+  CHECK(s.failures == 1);
+  CHECK(s.busy_retries >= 4);
+  CHECK(s.last_error.find("loop event 1") == 0);
+  other.store->rollback();
+  writer.on_keyframe(keyframe(1, 100), Eigen::Isometry3d::Identity());
+  CHECK(writer.stats().keyframes_written == 1);  // stopped: a consistent prefix stays on disk
+  CHECK(next.decisions == 1);                    // the decision was still passed on
   fs::remove_all(dir);
 }
