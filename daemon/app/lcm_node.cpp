@@ -19,11 +19,14 @@
 #include <sys/stat.h>
 
 #include "bounded_decode.hpp"
+#include "fault_stall_sink.hpp"
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
 #include "map_writer.hpp"
 #include "output_messages.hpp"
+#include "systemd_notify.hpp"
 #include "trajectory_publisher.hpp"
+#include "watchdog.hpp"
 
 namespace loopd {
 namespace {
@@ -332,6 +335,75 @@ bool resume_from_map(MapSession& map, LoopdEngine& engine, bool skip_stored_keyf
   return true;
 }
 
+/// The service manager's view of a live run (sd_notify): READY=1 once listening, a STATUS= line every status period,
+/// WATCHDOG=1 while the pipeline makes progress, STOPPING=1 at the stop. Polled from the loop that handles LCM, so a
+/// stuck LCM loop stops the pings too. Without NOTIFY_SOCKET only the stall log lines remain.
+class ServiceLink {
+ public:
+  ServiceLink(const NodeConfig& node, LoopdEngine& engine, const MapSession& map, const std::atomic<std::int64_t>& ingest_steps)
+      : node_(node), engine_(engine), map_(map), ingest_steps_(ingest_steps), watchdog_(notifier_, node.watchdog_stall) {
+    if (notifier_.watchdog_usec() > 0)
+      std::fprintf(stderr, "loopd: systemd watchdog: a ping every %.1f s while the pipeline makes progress (stall limit %.1f s)\n",
+                   notifier_.ping_interval_s(), node.watchdog_stall);
+  }
+  void ready() {
+    notifier_.ready(status_line());
+    next_status_s_ = wall_s() + node_.status_period;
+  }
+  void poll() {
+    const double now = wall_s();
+    const EngineProgress p = engine_.progress();
+    const bool engine_pending = p.workers.pending || p.sequential.pending;
+    // The ingest thread loops at least every 100 ms; it may wait on the engine's backpressure, which the engine's
+    // stages answer for, so it is only judged while the engine has nothing pending.
+    watchdog_.poll({{"worker pool", p.workers}, {"sequential stage", p.sequential}, {"ingest thread", {ingest_steps_.load(), !engine_pending}}}, now);
+    if (now < next_status_s_) return;
+    next_status_s_ = now + node_.status_period;
+    notifier_.status(status_line());
+  }
+  void stopping() { notifier_.stopping("stopping: " + status_line()); }
+
+ private:
+  std::string status_line() const {
+    const EngineStats s = engine_.stats();
+    const MapStatus m = map_status(map_, node_, s);
+    std::string map = m.path.empty() ? "map in memory" : "map " + m.path + " " + std::to_string(m.bytes / 1048576) + " MB";
+    if (m.write_failures > 0) map += ", " + std::to_string(m.write_failures) + " refused writes";
+    return "keyframes " + std::to_string(s.keyframes) + ", loops accepted " + std::to_string(s.loops_accepted) + ", rejected " +
+           std::to_string(s.loops_rejected) + ", queue " + std::to_string(s.queue_depth) + ", shed " + std::to_string(s.shed) + "; " + map;
+  }
+
+  const NodeConfig& node_;
+  LoopdEngine& engine_;
+  const MapSession& map_;
+  const std::atomic<std::int64_t>& ingest_steps_;
+  SystemdNotifier notifier_;
+  PipelineWatchdog watchdog_;
+  double next_status_s_ = 0.0;
+};
+
+/// TEST-ONLY: the sequential-stage stall the watchdog test arms through the environment (see FaultStallSink).
+std::unique_ptr<FaultStallSink> fault_stall_sink(EngineSink& next) {
+  const auto stall = FaultStallSink::from_environment();
+  if (!stall) return nullptr;
+  std::fprintf(stderr, "loopd: TEST-ONLY fault armed: the sequential stage stalls %d ms at keyframe %lld\n", stall->second,
+               static_cast<long long>(stall->first));
+  return std::make_unique<FaultStallSink>(next, stall->first, stall->second);
+}
+
+/// Handles LCM until `stop`, polling the service link at least every 100 ms. False after an LCM error.
+bool handle_lcm_until_stopped(lcm::LCM& lcm, const std::atomic<bool>& stop, ServiceLink& service) {
+  while (!stop.load()) {
+    if (lcm.handleTimeout(100) < 0) {
+      if (stop.load() || errno == EINTR) continue;  // a signal interrupted the wait
+      std::cerr << "loopd: LCM error while handling messages: " << std::strerror(errno) << std::endl;
+      return false;
+    }
+    service.poll();
+  }
+  return true;
+}
+
 }  // namespace
 
 std::optional<std::string> NodeConfig::validate() const {
@@ -341,6 +413,7 @@ std::optional<std::string> NodeConfig::validate() const {
   if (input_queue_capacity < 1) return "input_queue_capacity must be >= 1";
   if (log_every_n < 1) return "log_every_n must be >= 1";
   if (!(status_period > 0.0 && status_period <= 1e6)) return "status_period must be in (0, 1e6] [s]";
+  if (!(watchdog_stall > 0.0 && watchdog_stall <= 1e6)) return "watchdog_stall must be in (0, 1e6] [s]";
   if (!map.uri.empty())
     if (auto e = map.validate()) return "map: " + *e;
   if (!(map_cache_mb >= 0.0 && map_cache_mb <= 1e7)) return "map.cache_mb must be in [0, 1e7] [MB]";
@@ -385,9 +458,12 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   if (!open_map(node, &map)) return 2;
   OutputSink sink(node, &lcm, nullptr, false);
   if (map.store) map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n, fault_correction_delay_ms());
+  EngineSink* first_sink = map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink;
+  const std::unique_ptr<FaultStallSink> stall = fault_stall_sink(*first_sink);
+  if (stall) first_sink = stall.get();
   EngineConfig live_config = engine_config;
   live_config.detector.parallel_candidates = true;  // spare cores shorten the latency tail; same decisions
-  LoopdEngine engine(live_config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
+  LoopdEngine engine(live_config, first_sink);
   if (map.store && node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
   if (!resume_from_map(map, engine, false, engine_config.detector.sensor, "live " + node.lcm_url)) return 2;
   InputHandler handler(node, decode_limits(engine_config));
@@ -407,11 +483,12 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   lcm.subscribe(node.scan_channel, &InputHandler::on_raw, &handler);
   lcm.subscribe(node.pose_channel, &InputHandler::on_raw, &handler);
 
+  std::atomic<std::int64_t> ingest_steps{0};  // the ingest thread's loops, for the watchdog
   std::thread ingest_thread([&] {
     pthread_setname_np(pthread_self(), "loopd-ingest");
     std::int64_t last_data_utime = 0;
     double next_status = wall_s() + node.status_period;
-    for (;;) {
+    for (;; ingest_steps.fetch_add(1)) {
       std::deque<Input> batch;
       {
         std::unique_lock<std::mutex> lock(qm);
@@ -441,13 +518,10 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
 
   std::cerr << "loopd: listening on " << node.scan_channel << " and " << node.pose_channel << " (" << node.lcm_url
             << "), descriptor device: " << engine.stats().device << std::endl;
-  while (!stop.load()) {
-    if (lcm.handleTimeout(100) < 0) {
-      if (stop.load() || errno == EINTR) continue;  // a signal interrupted the wait
-      std::cerr << "loopd: LCM error while handling messages: " << std::strerror(errno) << std::endl;
-      break;
-    }
-  }
+  ServiceLink service(node, engine, map, ingest_steps);
+  service.ready();  // the map is open and resumed, both channels subscribed
+  const bool lcm_ok = handle_lcm_until_stopped(lcm, stop, service);
+  service.stopping();  // before the engine drains and the map closes
   {
     std::lock_guard<std::mutex> lock(qm);
     done = true;
@@ -456,7 +530,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   ingest_thread.join();
   fill_summary(summary, engine, handler);
   if (summary) summary->seconds = wall_s() - start;
-  return 0;
+  return lcm_ok ? 0 : 3;
 }
 
 int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const std::string& input_log, const std::string& output_log,

@@ -20,8 +20,11 @@ struct NodeConfig {
   std::string status_channel = "LOOPD_STATUS";
   int input_queue_capacity = 256;  ///< decoded messages waiting for the ingest thread (live); beyond it they are dropped
   int log_every_n = 100;           ///< a repeated anomaly is logged on its 1st, (N+1)th, ... occurrence
-  double status_period = 1.0;      ///< [s] status_t period
-  bool quiet = false;              ///< no per-loop log lines
+  double status_period = 1.0;      ///< [s] status_t period (and the systemd STATUS= line's)
+  /// [s] under systemd (WATCHDOG_USEC): WATCHDOG=1 pings stop when a pipeline stage has had work waiting this long
+  /// without progress; systemd then restarts loopd after WatchdogSec=.
+  double watchdog_stall = 20.0;
+  bool quiet = false;  ///< no per-loop log lines
   /// The map store (map.path / --map): empty uri = everything in memory, as before.
   MapStoreConfig map;
   /// [MB] with a map: keyframe features beyond this LRU cache live only in the map (read back for candidates);
@@ -43,7 +46,9 @@ struct RunSummary {
 };
 
 /// @brief Live: subscribes on the bus, the LCM thread only decodes and enqueues, an ingest thread feeds the
-///        engine; runs until `stop` becomes true. Returns non-zero when LCM cannot be initialised.
+///        engine; runs until `stop` becomes true. Under systemd (NOTIFY_SOCKET) it notifies READY=1 once the map is open
+///        and both channels are subscribed, STATUS= lines, WATCHDOG=1 while the pipeline makes progress, and STOPPING=1
+///        at the stop. Returns 2 when the map cannot be used, 3 when LCM cannot be initialised or fails while handling.
 int run_live(const NodeConfig& node, const EngineConfig& engine, const std::atomic<bool>& stop, RunSummary* summary);
 
 /// @brief Replay: reads an lcm-logger file through LCM's file provider as fast as possible, waits for the workers

@@ -203,6 +203,7 @@ void LoopdEngine::submit(Job job) {
       std::lock_guard<std::mutex> s(stats_mutex_);
       ++stats_.shed;
     }
+    worker_steps_.fetch_add(1);
     complete(shed.sequence, shed.input, nullptr);
     lock.lock();
   }
@@ -225,6 +226,7 @@ void LoopdEngine::worker_loop() {
     space_cv_.notify_one();
     auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud));
     job.cloud = PointCloud();
+    worker_steps_.fetch_add(1);
     if (!features->ok) {
       std::lock_guard<std::mutex> s(stats_mutex_);
       ++stats_.feature_failures;
@@ -240,6 +242,7 @@ void LoopdEngine::worker_loop() {
 void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features) {
   std::unique_lock<std::mutex> lock(sequence_mutex_);
   ready_.emplace(sequence, std::make_pair(input, std::move(features)));
+  completed_.fetch_add(1);
   ready_backlog_.store(static_cast<int>(ready_.size()));
   if (sequencing_) return;  // the thread that is sequencing takes it (checked and cleared under the same lock)
   sequencing_ = true;
@@ -255,7 +258,11 @@ void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shar
     space_cv_.notify_one();
     // Each decision goes out as soon as it is made; an accepted loop's correction follows.
     DetectorOutput out = detector_.add_keyframe(
-        item.first, item.second, [this](const LoopDecision& d) { sink_->on_decision(d); },
+        item.first, item.second,
+        [this](const LoopDecision& d) {
+          sequential_steps_.fetch_add(1);
+          sink_->on_decision(d);
+        },
         [this](const KeyframeRecord& k, const Eigen::Isometry3d& T_map_sensor) { sink_->on_keyframe(k, T_map_sensor); });
     if (out.correction) sink_->on_correction(*out.correction);
     sink_->on_keyframe_decided(item.first.key);
@@ -271,6 +278,7 @@ void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shar
     }
     lock.lock();
     ++next_to_sequence_;
+    sequential_steps_.fetch_add(1);
     sequenced_.fetch_add(1);
   }
   sequencing_ = false;
@@ -298,6 +306,16 @@ EngineStats LoopdEngine::stats() const {
   std::lock_guard<std::mutex> lock(queue_mutex_);
   s.queue_depth = static_cast<int>(queue_.size()) + busy_;
   return s;
+}
+
+EngineProgress LoopdEngine::progress() const {
+  EngineProgress p;
+  p.sequential.steps = sequential_steps_.load();
+  p.sequential.pending = completed_.load() > sequenced_.load();
+  p.workers.steps = worker_steps_.load();
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  p.workers.pending = !queue_.empty() || busy_ > 0;
+  return p;
 }
 
 Eigen::Isometry3d LoopdEngine::T_map_odom() const {

@@ -19,6 +19,7 @@
 #include "scan_loss_estimator.hpp"
 #include "scan_pose_associator.hpp"
 #include "sensor_layout_watch.hpp"
+#include "watchdog.hpp"
 
 namespace loopd {
 
@@ -70,6 +71,12 @@ struct EngineStats {
   std::string device;
 };
 
+/// @brief Liveness of the engine's two stages (for the systemd watchdog, see PipelineWatchdog).
+struct EngineProgress {
+  StageProgress workers;     ///< steps: keyframes whose features were computed (or shed); pending: keyframes queued or in a worker
+  StageProgress sequential;  ///< steps: keyframes sequenced and decisions made; pending: a finished keyframe waits to be sequenced
+};
+
 /// @brief Scan/pose association, keyframe selection, a worker pool for features and an in-order sequential
 ///        stage running the LoopDetector. Transport-free: the daemon feeds it from LCM, tests feed it directly.
 ///        push_* and tick() must be called from one thread.
@@ -101,6 +108,8 @@ class LoopdEngine {
   void keep_features_in_store(MapStore& store, std::size_t cache_bytes);
   /// @brief Keyframes recognised as already in the map and skipped (replay resume).
   std::int64_t keyframes_skipped() const { return keyframes_skipped_.load(); }
+  /// @brief How far each stage got and whether work waits for it; callable from any thread.
+  EngineProgress progress() const;
 
  private:
   bool skip_if_stored(std::int64_t utime);
@@ -161,6 +170,10 @@ class LoopdEngine {
   std::condition_variable done_cv_;
   std::mutex done_mutex_;
   std::atomic<std::int64_t> sequenced_{0};
+  // Progress (progress()): keyframes handed to complete() and steps of each stage.
+  std::atomic<std::int64_t> completed_{0};
+  std::atomic<std::int64_t> worker_steps_{0};
+  std::atomic<std::int64_t> sequential_steps_{0};
 
   mutable std::mutex stats_mutex_;
   EngineStats stats_;
