@@ -4,15 +4,42 @@
 #include <csignal>
 #include <cstdio>
 #include <iostream>
+#include <unistd.h>
 
 #include "daemon_config.hpp"
 #include "lcm_node.hpp"
+#include "log_level.hpp"
 
 namespace {
 std::atomic<bool> g_stop{false};  // set only by the signal handler
 extern "C" void on_signal(int) { g_stop.store(true); }
 
+/// SIGHUP (what `systemctl reload` or a closed terminal sends) changes nothing: logs go to stderr, which loopd does not
+/// open, and the config is read once at start. Said once on stderr (write(2): async-signal-safe), never fatal.
+std::atomic<bool> g_hup_seen{false};
+extern "C" void on_hangup(int) {
+  if (g_hup_seen.exchange(true)) return;
+  static const char kMessage[] = "loopd: SIGHUP ignored: nothing to reopen (logs go to stderr); restart loopd to apply a changed config\n";
+  const ssize_t ignored = write(STDERR_FILENO, kMessage, sizeof(kMessage) - 1);
+  (void)ignored;
+}
+
+/// SIGINT and SIGTERM stop loopd cleanly (the map is closed); SIGHUP is ignored with one log line.
+void install_signal_handlers() {
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  struct sigaction hup {};
+  hup.sa_handler = on_hangup;
+  sigemptyset(&hup.sa_mask);
+  hup.sa_flags = SA_RESTART;
+  sigaction(SIGHUP, &hup, nullptr);
+}
+
 void print_summary(const loopd::RunSummary& s, bool replay) {
+  if (!loopd::log_enabled(loopd::LogLevel::kInfo)) return;
   const auto& e = s.engine;
   std::fprintf(stderr,
                "loopd: %s finished in %.1f s%s: scans %lld, poses %lld, keyframes %lld, loops accepted %lld, rejected %lld; "
@@ -72,12 +99,8 @@ int main(int argc, char** argv) {
     return 0;
   }
 
-  struct sigaction sa {};
-  sa.sa_handler = on_signal;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
-
+  loopd::set_log_level(config.node.log_level);
+  install_signal_handlers();
   loopd::RunSummary summary;
   int rc = 0;
   if (!replay_log.empty()) {

@@ -233,6 +233,7 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("log_every_n", n.log_every_n);
   b.field("status_period", n.status_period);
   b.field("watchdog_stall", n.watchdog_stall);
+  b.choice("log_level", n.log_level, {{"error", LogLevel::kError}, {"warn", LogLevel::kWarn}, {"info", LogLevel::kInfo}});
   b.field("map.path", n.map.uri);
   b.field("map.synchronous", n.map.synchronous);
   b.field("map.cache_mb", n.map_cache_mb);

@@ -20,6 +20,7 @@
 
 #include "bounded_decode.hpp"
 #include "fault_stall_sink.hpp"
+#include "log_level.hpp"
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
 #include "map_writer.hpp"
@@ -38,6 +39,7 @@ std::int64_t wall_utime() {
 
 /// Logs an anomaly on its 1st, (N+1)th, ... occurrence.
 void log_anomaly(const std::string& what, std::int64_t count, int every) {
+  if (!log_enabled(LogLevel::kWarn)) return;
   if (every <= 0 || (count - 1) % every == 0) std::cerr << "loopd: " << what << " (" << count << " so far)" << std::endl;
 }
 
@@ -49,7 +51,7 @@ class OutputSink : public EngineSink {
   void on_decision(const LoopDecision& d) override {
     const std::int64_t t = data_time_ ? d.query_utime : wall_utime();
     publish(node_.loop_event_channel, t, to_message(d, t));
-    if (!node_.quiet && d.status == LoopStatus::kAccepted)
+    if (!node_.quiet && d.status == LoopStatus::kAccepted && log_enabled(LogLevel::kInfo))
       std::fprintf(stderr, "loopd: loop accepted: keyframe %lld -> %lld (descriptor %.3f, lcp %.2f, icp %.3f m, %.0f ms)\n",
                    static_cast<long long>(d.query.index), static_cast<long long>(d.match.index), d.descriptor_distance, d.lcp_fraction,
                    d.icp_residual, d.ms_total);
@@ -212,7 +214,7 @@ void ingest(LoopdEngine& engine, InputHandler& h, Input& in, const NodeConfig& n
 class InputHealthLog {
  public:
   void update(const EngineStats& s, int every) {
-    if (!loss_warned_ && s.scan_loss_fraction > 0.01 && s.scans_in + s.scans_lost_estimate >= 100) {
+    if (!loss_warned_ && s.scan_loss_fraction > 0.01 && s.scans_in + s.scans_lost_estimate >= 100 && log_enabled(LogLevel::kWarn)) {
       loss_warned_ = true;
       std::fprintf(stderr,
                    "loopd: warning: about %lld scans (%.1f %%) never arrived (gaps in the scan rate). LCM drops a whole message when one UDP "
@@ -326,6 +328,7 @@ bool resume_from_map(MapSession& map, LoopdEngine& engine, bool skip_stored_keyf
     std::cerr << "loopd: " << r.error << std::endl;
     return false;
   }
+  if (!log_enabled(LogLevel::kInfo)) return true;
   std::fprintf(stderr, "loopd: map %s: %lld keyframes, %lld decisions, correction revision %lld restored in %.2f s", map.store->uri().c_str(),
                static_cast<long long>(r.keyframes), static_cast<long long>(r.decisions), static_cast<long long>(r.revision), r.seconds);
   if (r.dropped_undecided > 0)
@@ -342,7 +345,7 @@ class ServiceLink {
  public:
   ServiceLink(const NodeConfig& node, LoopdEngine& engine, const MapSession& map, const std::atomic<std::int64_t>& ingest_steps)
       : node_(node), engine_(engine), map_(map), ingest_steps_(ingest_steps), watchdog_(notifier_, node.watchdog_stall) {
-    if (notifier_.watchdog_usec() > 0)
+    if (notifier_.watchdog_usec() > 0 && log_enabled(LogLevel::kInfo))
       std::fprintf(stderr, "loopd: systemd watchdog: a ping every %.1f s while the pipeline makes progress (stall limit %.1f s)\n",
                    notifier_.ping_interval_s(), node.watchdog_stall);
   }
@@ -436,6 +439,7 @@ bool check_receive_buffer(const std::string& lcm_url, std::int64_t points) {
   std::ifstream("/proc/sys/net/core/rmem_max") >> rmem_max;
   const std::int64_t effective = (pos != std::string::npos && rmem_max > 0) ? std::min(buffer, rmem_max) : buffer;
   if (effective >= 2 * needed) return false;
+  if (!log_enabled(LogLevel::kWarn)) return true;
   std::fprintf(stderr,
                "loopd: warning: UDP receive buffer is %lld KiB but one %lld-point scan is about %lld KiB; LCM drops a whole message when one "
                "fragment is lost. Fix: add recv_buf_size=%lld to the LCM URL and allow it with 'sysctl -w net.core.rmem_max=%lld'.\n",
@@ -516,8 +520,9 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
     }
   });
 
-  std::cerr << "loopd: listening on " << node.scan_channel << " and " << node.pose_channel << " (" << node.lcm_url
-            << "), descriptor device: " << engine.stats().device << std::endl;
+  if (log_enabled(LogLevel::kInfo))
+    std::cerr << "loopd: listening on " << node.scan_channel << " and " << node.pose_channel << " (" << node.lcm_url
+              << "), descriptor device: " << engine.stats().device << std::endl;
   ServiceLink service(node, engine, map, ingest_steps);
   service.ready();  // the map is open and resumed, both channels subscribed
   const bool lcm_ok = handle_lcm_until_stopped(lcm, stop, service);

@@ -4,6 +4,7 @@
 #include <optional>
 #include <string>
 
+#include "log_level.hpp"
 #include "loopd/map/map_store.hpp"
 #include "loopd_engine.hpp"
 #include "trajectory_publisher.hpp"
@@ -24,7 +25,8 @@ struct NodeConfig {
   /// [s] under systemd (WATCHDOG_USEC): WATCHDOG=1 pings stop when a pipeline stage has had work waiting this long
   /// without progress; systemd then restarts loopd after WatchdogSec=.
   double watchdog_stall = 20.0;
-  bool quiet = false;  ///< no per-loop log lines
+  bool quiet = false;                    ///< no per-loop log lines
+  LogLevel log_level = LogLevel::kInfo;  ///< which stderr lines are written (log_level: error, warn, info)
   /// The map store (map.path / --map): empty uri = everything in memory, as before.
   MapStoreConfig map;
   /// [MB] with a map: keyframe features beyond this LRU cache live only in the map (read back for candidates);

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "heap_release.hpp"
+#include "log_level.hpp"
 
 namespace loopd {
 
@@ -177,10 +178,11 @@ bool LoopdEngine::skip_if_stored(std::int64_t utime) {
     ++keyframes_skipped_;
     return true;
   }
-  std::fprintf(stderr,
-               "loopd: warning: the map's keyframe %zu was made at utime %lld, this drive's at %lld: not the drive the map was made "
-               "from; its keyframes are added after the map's\n",
-               next_stored_, static_cast<long long>(stored_utimes_[next_stored_]), static_cast<long long>(utime));
+  if (log_enabled(LogLevel::kWarn))
+    std::fprintf(stderr,
+                 "loopd: warning: the map's keyframe %zu was made at utime %lld, this drive's at %lld: not the drive the map was made "
+                 "from; its keyframes are added after the map's\n",
+                 next_stored_, static_cast<long long>(stored_utimes_[next_stored_]), static_cast<long long>(utime));
   skip_stored_ = false;
   return false;
 }

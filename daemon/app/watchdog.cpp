@@ -2,6 +2,8 @@
 
 #include <cstdio>
 
+#include "log_level.hpp"
+
 namespace loopd {
 
 bool ProgressWatch::update(const StageProgress& progress, double now_s) {
@@ -23,10 +25,10 @@ bool PipelineWatchdog::poll(const std::vector<NamedProgress>& stages, double now
       stuck_for = watches_[i].stalled_for(now_s);
     }
   }
-  if (stuck && !stalled_)
+  if (stuck && !stalled_ && log_enabled(LogLevel::kWarn))
     std::fprintf(stderr, "loopd: the %s made no progress for %.1f s with work waiting%s\n", stuck->name.c_str(), stuck_for,
                  notifier_.ping_interval_s() > 0.0 ? ": watchdog pings stop (systemd restarts loopd)" : "");
-  if (!stuck && stalled_)
+  if (!stuck && stalled_ && log_enabled(LogLevel::kWarn))
     std::fprintf(stderr, "loopd: the pipeline makes progress again%s\n", notifier_.ping_interval_s() > 0.0 ? ": watchdog pings resume" : "");
   stalled_ = stuck != nullptr;
   if (stalled_ || notifier_.ping_interval_s() <= 0.0 || now_s < next_ping_s_) return !stalled_;
