@@ -1,0 +1,20 @@
+# Writes the package's /etc/loopd/loopd.yaml from daemon/loopd.example.yaml: the same file with map.path set to
+# MAP_PATH and a header saying so. Fails when the example's map block no longer starts with `path: ""` (then this
+# script and the example must be looked at together). Usage: cmake -DIN=example -DOUT=file -DMAP_PATH=path -P make-config.cmake
+foreach(var IN ITEMS IN OUT MAP_PATH)
+  if(NOT DEFINED ${var})
+    message(FATAL_ERROR "make-config.cmake: -D${var}= is required")
+  endif()
+endforeach()
+file(READ "${IN}" text)
+set(anchor "\nmap:\n  path: \"\"")
+string(FIND "${text}" "${anchor}" first)
+string(FIND "${text}" "${anchor}" last REVERSE)
+if(first EQUAL -1 OR NOT first EQUAL last)
+  message(FATAL_ERROR "make-config.cmake: ${IN}: expected exactly one 'map:' block whose first line is 'path: \"\"'")
+endif()
+string(REPLACE "${anchor}" "\nmap:\n  path: ${MAP_PATH}" text "${text}")
+set(header "# /etc/loopd/loopd.yaml: loopd's configuration as a service (loopd.service), read at start.\n")
+string(APPEND header "# It is loopd.example.yaml (/usr/share/loopd) with the map at ${MAP_PATH}; edits here survive upgrades.\n\n")
+file(WRITE "${OUT}.tmp" "${header}${text}")
+file(RENAME "${OUT}.tmp" "${OUT}")
