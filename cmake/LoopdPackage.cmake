@@ -78,7 +78,7 @@ install(FILES ${loopd_deb_src}/copyright ${loopd_deb_out}/changelog.gz DESTINATI
 install(FILES ${loopd_deb_src}/lintian-overrides DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/lintian/overrides RENAME loopd
         COMPONENT system EXCLUDE_FROM_ALL)
 
-# CPack: one package per group, named as the group.
+# CPack: one package per group, named as the group. Descriptions: CPack indents the lines after the summary.
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME loopd)
 set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
@@ -106,24 +106,24 @@ set(CPACK_DEBIAN_LOOPD_PACKAGE_SUGGESTS "opencl-icd")  # descriptor.backend open
 set(CPACK_DEBIAN_LOOPD_PACKAGE_CONTROL_EXTRA ${loopd_deb_src}/postinst ${loopd_deb_src}/prerm ${loopd_deb_src}/postrm
                                              ${loopd_deb_src}/conffiles)
 set(CPACK_DEBIAN_LOOPD_DESCRIPTION "lidar loop-closure daemon for LCM
- loopd listens for lidar scans and odometry poses on an LCM bus, detects and
- verifies loop closures (M2DP descriptor, plane-based 4PCS, GICP and a
- cluster consistency check) and publishes loop events and the corrected
- trajectory. Its map (keyframes, loops, corrections) is kept in SQLite so a
- restart resumes.
- .
- This package holds the daemon with its systemd unit (loopd.service, user
- loopd, configuration /etc/loopd/loopd.yaml, map /var/lib/loopd/map.db), the
- command-line tools (simulation, evaluation, map inspection, benchmarks),
- loopd-spy and the Java message types for lcm-spy.")
+loopd listens for lidar scans and odometry poses on an LCM bus, detects and
+verifies loop closures (M2DP descriptor, plane-based 4PCS, GICP and a
+cluster consistency check) and publishes loop events and the corrected
+trajectory. Its map (keyframes, loops, corrections) is kept in SQLite so a
+restart resumes.
+.
+This package holds the daemon with its systemd unit (loopd.service, user
+loopd, configuration /etc/loopd/loopd.yaml, map /var/lib/loopd/map.db), the
+command-line tools (simulation, evaluation, map inspection, benchmarks),
+loopd-spy and the Java message types for lcm-spy.")
 
 set(CPACK_DEBIAN_LOOPD-DEV_PACKAGE_NAME loopd-dev)
 set(CPACK_DEBIAN_LOOPD-DEV_PACKAGE_SECTION libdevel)
 set(CPACK_DEBIAN_LOOPD-DEV_PACKAGE_DEPENDS
     "liblcm-dev, libeigen3-dev, libceres-dev, libpcl-dev, ocl-icd-opencl-dev, libsqlite3-dev, libzstd-dev, pkg-config")
 set(CPACK_DEBIAN_LOOPD-DEV_DESCRIPTION "lidar loop-closure library of loopd (development files)
- The static libraries of loopd's pipeline (descriptors, segmentation,
- registration, verification, loop correction, map store), their headers,
- the C++ headers of loopd's LCM message types and the CMake package:
- find_package(loopd) and link loopd::loopd_core.")
+The static libraries of loopd's pipeline (descriptors, segmentation,
+registration, verification, loop correction, map store), their headers,
+the C++ headers of loopd's LCM message types and the CMake package:
+find_package(loopd) and link loopd::loopd_core.")
 include(CPack)
