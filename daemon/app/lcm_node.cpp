@@ -359,7 +359,7 @@ class ServiceLink {
     const bool engine_pending = p.workers.pending || p.sequential.pending;
     // The ingest thread loops at least every 100 ms; it may wait on the engine's backpressure, which the engine's
     // stages answer for, so it is only judged while the engine has nothing pending.
-    watchdog_.poll({{"worker pool", p.workers}, {"sequential stage", p.sequential}, {"ingest thread", {ingest_steps_.load(), !engine_pending}}}, now);
+    watchdog_.poll({{"sequential stage", p.sequential}, {"worker pool", p.workers}, {"ingest thread", {ingest_steps_.load(), !engine_pending}}}, now);
     if (now < next_status_s_) return;
     next_status_s_ = now + node_.status_period;
     notifier_.status(status_line());
