@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <unordered_set>
 
 #include "loopd/core/stopwatch.hpp"
 #include "loopd/correction/pose_graph_internal.hpp"
@@ -138,15 +139,19 @@ void add_odometry_chain_edges(const std::vector<Eigen::Isometry3d>& odometry_pos
   }
 }
 
-/// @brief One robust edge per loop between the nodes of its ends (none when both ends share a node).
+/// @brief One robust edge per loop between the nodes of its ends (none when both ends share a node). In a graph capped
+/// by max_nodes only the first loop between two nodes becomes an edge: the others join the same two places a few
+/// keyframes apart, and on a route driven lap after lap they would make the factorisation's memory grow with the laps.
 void add_loop_edges(const std::vector<const LoopConstraint*>& loops, const std::vector<Eigen::Isometry3d>& odometry_poses, const NodeLayout& layout,
                     const PoseGraphConfig& config, std::vector<GraphEdge>& edges) {
+  std::unordered_set<std::int64_t> joined;  // node pairs (a, b) with an edge, when capped
   for (const LoopConstraint* l : loops) {
     const auto m = static_cast<std::size_t>(l->match_index), q = static_cast<std::size_t>(l->query_index);
     GraphEdge e;
     e.a = layout.nearest_node[m];
     e.b = layout.nearest_node[q];
     if (e.a == e.b) continue;  // both ends on one node (a loop over fewer than loop_end_stride keyframes)
+    if (layout.capped && !joined.insert(static_cast<std::int64_t>(std::min(e.a, e.b)) << 32 | std::max(e.a, e.b)).second) continue;
     // Z between the nodes: node_m <- m by odometry, m <- q by the loop, q <- node_q by odometry (a few steps, taken
     // as exact next to the loop's own uncertainty).
     e.Z = to_node(odometry_poses, layout, m).inverse() * l->T_match_query * to_node(odometry_poses, layout, q);

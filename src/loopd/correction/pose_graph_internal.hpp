@@ -35,6 +35,7 @@ struct NodeLayout {
   std::vector<int> anchors;       ///< keyframe of each node, increasing
   std::vector<int> nearest_node;  ///< per keyframe: its nearest node (itself when it is one)
   bool reduce = false;            ///< false: every keyframe is a node
+  bool capped = false;            ///< max_nodes made the nodes sparser than the loops: one loop edge per node pair
 };
 
 /// @brief Chooses the nodes: the carrying keyframes when they are few (reduce_chains), every loop_end_stride-th

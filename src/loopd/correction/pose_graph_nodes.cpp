@@ -67,6 +67,7 @@ NodeLayout choose_nodes(std::size_t n, const std::vector<const LoopConstraint*>&
     const std::size_t kept = reduce ? anchors.size() : decimate ? (n + stride - 1) / stride + 1 : n;
     if (kept > cap) {  // every k-th keyframe plus the last: ceil(n / k) + 1 <= cap nodes
       decimate = true;
+      layout.capped = true;
       stride = std::max(stride, (n + cap - 2) / (cap - 1));
     }
   }
