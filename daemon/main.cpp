@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "daemon_config.hpp"
+#include "heap_release.hpp"
 #include "lcm_node.hpp"
 #include "log_level.hpp"
 
@@ -56,6 +57,7 @@ void print_summary(const loopd::RunSummary& s, bool replay) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  loopd::serve_large_allocations_by_mmap();
   CLI::App app{
       "loopd: lidar loop-closure daemon. Listens for scans and odometry poses on LCM, detects and verifies loops\n"
       "(M2DP + plane-based 4PCS + GICP + Hungarian check), publishes loop events and corrected trajectories."};

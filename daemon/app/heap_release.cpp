@@ -12,4 +12,10 @@ void release_free_heap() {
 #endif
 }
 
+void serve_large_allocations_by_mmap() {
+#if defined(__GLIBC__)
+  mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+#endif
+}
+
 }  // namespace loopd
