@@ -23,8 +23,9 @@ struct NodeConfig {
   int log_every_n = 100;           ///< a repeated anomaly is logged on its 1st, (N+1)th, ... occurrence
   double status_period = 1.0;      ///< [s] status_t period (and the systemd STATUS= line's)
   /// [s] under systemd (WATCHDOG_USEC): WATCHDOG=1 pings stop when a pipeline stage has had work waiting this long
-  /// without progress; systemd then restarts loopd after WatchdogSec=.
-  double watchdog_stall = 20.0;
+  /// without progress; systemd then restarts loopd after WatchdogSec=. Longer than the longest legitimate step: a
+  /// pose-graph solve took up to ~20 s on 20,000 keyframes of a lap driven 40 times (max_nodes 4000).
+  double watchdog_stall = 120.0;
   bool quiet = false;                    ///< no per-loop log lines
   LogLevel log_level = LogLevel::kInfo;  ///< which stderr lines are written (log_level: error, warn, info)
   /// The map store (map.path / --map): empty uri = everything in memory, as before.
