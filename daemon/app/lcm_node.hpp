@@ -24,7 +24,7 @@ struct NodeConfig {
   double status_period = 1.0;      ///< [s] status_t period (and the systemd STATUS= line's)
   /// [s] under systemd (WATCHDOG_USEC): WATCHDOG=1 pings stop when a pipeline stage has had work waiting this long
   /// without progress; systemd then restarts loopd after WatchdogSec=. Longer than the longest legitimate step: a
-  /// pose-graph solve took up to ~20 s on 20,000 keyframes of a lap driven 40 times (max_nodes 4000).
+  /// pose-graph solve took up to ~20 s on 20,000 keyframes of a lap visited 45 times (max_nodes 4000).
   double watchdog_stall = 120.0;
   bool quiet = false;                    ///< no per-loop log lines
   LogLevel log_level = LogLevel::kInfo;  ///< which stderr lines are written (log_level: error, warn, info)
