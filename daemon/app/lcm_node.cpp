@@ -132,7 +132,7 @@ class InputHandler {
     DecodeResult r;
     if (is_scan) {
       point_cloud_t m;
-      r = decode_bounded(data, size, limits_, &m);
+      r = decode_any_point_cloud(data, size, limits_, &m);  // older publishers' layout too
       if (r.ok) in.msg = std::move(m);
     } else {
       pose_t m;

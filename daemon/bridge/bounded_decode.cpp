@@ -45,6 +45,14 @@ class WireWalker {
     return n;
   }
 
+  /// The length of an optional per-point array: 0 (absent) or exactly `num_points`, and its elements present.
+  std::int64_t optional_length(const char* field, std::int64_t n, std::int64_t num_points, std::size_t width) {
+    if (!ok()) return 0;
+    if (n != 0 && n != num_points)
+      return fail_at(pos_ - 4, field, "= " + std::to_string(n) + " is neither 0 nor num_points (" + std::to_string(num_points) + ")"), 0;
+    return length(field, n, num_points, width);
+  }
+
   /// An LCM string: int32 length including the terminating NUL, the bytes, the NUL; no NUL inside.
   void string(const char* field, std::int32_t max_bytes) {
     const std::int32_t n = int32(field);
@@ -102,7 +110,9 @@ void walk(WireWalker& w, const DecodeLimits&, const pose_t*) {
   w.skip("covariance", 8, 36);
 }
 
-void walk(WireWalker& w, const DecodeLimits& limits, const point_cloud_t*) {
+/// point_cloud_t up to num_rings: the whole of version 1 (before `num_point_times` and `time_offset` were appended).
+/// Returns num_points.
+std::int64_t walk_point_cloud_v1(WireWalker& w, const DecodeLimits& limits) {
   w.skip("utime", 8);
   w.skip("seq", 8);
   w.string("frame", limits.max_string);
@@ -114,6 +124,13 @@ void walk(WireWalker& w, const DecodeLimits& limits, const point_cloud_t*) {
   const std::int64_t rings = w.length("num_ring_indices", w.int32("num_ring_indices"), limits.max_points, sizeof(std::int16_t));
   w.skip("ring", sizeof(std::int16_t), static_cast<std::size_t>(rings));
   w.skip("num_rings", 2);
+  return points;
+}
+
+void walk(WireWalker& w, const DecodeLimits& limits, const point_cloud_t*) {
+  const std::int64_t points = walk_point_cloud_v1(w, limits);
+  const std::int64_t times = w.optional_length("num_point_times", w.int32("num_point_times"), points, sizeof(float));
+  w.skip("time_offset", sizeof(float), static_cast<std::size_t>(times));
 }
 
 void walk(WireWalker& w, const DecodeLimits& limits, const loop_event_t*) {
@@ -175,6 +192,19 @@ void walk(WireWalker& w, const DecodeLimits& limits, const status_t*) {
   w.string("map_error", limits.max_string);
 }
 
+/// The bytes of a message of an older layout with today's fingerprint in place of its own (the fields that the
+/// newer layout appends are added by the caller).
+std::vector<std::uint8_t> with_fingerprint(const void* data, std::size_t size, std::int64_t hash) {
+  const auto* bytes = static_cast<const std::uint8_t*>(data);
+  std::vector<std::uint8_t> upgraded(bytes, bytes + size);
+  for (int i = 0; i < 8; ++i) upgraded[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(hash) >> (56 - 8 * i));
+  return upgraded;
+}
+
+void append_big_endian(std::vector<std::uint8_t>* bytes, std::uint64_t value, int width) {
+  for (int i = width - 1; i >= 0; --i) bytes->push_back(static_cast<std::uint8_t>(value >> (8 * i)));
+}
+
 }  // namespace
 
 template <typename Msg>
@@ -200,6 +230,7 @@ DecodeResult decode_bounded(const void* data, std::size_t size, const DecodeLimi
   // The layout is proven: LCM's decoder now allocates no more than the message holds. It still runs inside a try
   // block, so that nothing can escape into an LCM callback or the replay loop.
   try {
+    *out = Msg();  // LCM's decoder leaves an array of declared length 0 as it was: start from an empty message
     const int used = out->decode(data, 0, static_cast<int>(size));
     if (used != static_cast<int>(size)) {
       result.reason = "LCM's decoder refused the message after the layout check (" + std::to_string(used) + ")";
@@ -244,13 +275,38 @@ DecodeResult decode_trajectory_v1(const void* data, std::size_t size, const Deco
   header.string("method", limits.max_string);
   header.skip("T_map_odom", 8, 16);
   const std::int32_t num = header.int32("num_keyframes");
-  const auto* bytes = static_cast<const std::uint8_t*>(data);
-  std::vector<std::uint8_t> upgraded(bytes, bytes + size);
-  const std::uint64_t hash = static_cast<std::uint64_t>(trajectory_t::getHash());
-  for (int i = 0; i < 8; ++i) upgraded[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(hash >> (56 - 8 * i));
+  std::vector<std::uint8_t> upgraded = with_fingerprint(data, size, trajectory_t::getHash());
   upgraded.push_back(1);
-  for (int i = 0; i < 8; ++i) upgraded.push_back(static_cast<std::uint8_t>(static_cast<std::uint64_t>(num) >> (56 - 8 * i)));
+  append_big_endian(&upgraded, static_cast<std::uint64_t>(num), 8);
   return decode_bounded(upgraded.data(), upgraded.size(), limits, out);
+}
+
+DecodeResult decode_point_cloud_v1(const void* data, std::size_t size, const DecodeLimits& limits, point_cloud_t* out) {
+  DecodeResult result;
+  if (data == nullptr || size < 8) {
+    result.reason = "no fingerprint";
+    return result;
+  }
+  WireWalker w(data, size);
+  w.fingerprint(kPointCloudV1Hash);
+  walk_point_cloud_v1(w, limits);
+  w.end();
+  if (!w.ok()) {
+    result.reason = w.error();
+    result.offset = w.error_offset();
+    return result;
+  }
+  // Today's layout of the same message: the new fingerprint, the version-1 fields, num_point_times = 0 (no times).
+  std::vector<std::uint8_t> upgraded = with_fingerprint(data, size, point_cloud_t::getHash());
+  append_big_endian(&upgraded, 0, 4);
+  return decode_bounded(upgraded.data(), upgraded.size(), limits, out);
+}
+
+DecodeResult decode_any_point_cloud(const void* data, std::size_t size, const DecodeLimits& limits, point_cloud_t* out) {
+  WireWalker w(data, data == nullptr ? 0 : size);
+  const std::int64_t hash = w.int64("fingerprint");
+  if (w.ok() && hash == kPointCloudV1Hash) return decode_point_cloud_v1(data, size, limits, out);
+  return decode_bounded(data, size, limits, out);
 }
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, channel_stats_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, status_t*);

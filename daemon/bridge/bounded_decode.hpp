@@ -15,7 +15,7 @@ namespace loopd {
 
 /// @brief Caps applied to a message's declared lengths before anything is allocated.
 struct DecodeLimits {
-  std::int64_t max_points = 2000000;      ///< point_cloud_t.num_points and num_ring_indices
+  std::int64_t max_points = 2000000;      ///< point_cloud_t.num_points and num_ring_indices (num_point_times: 0 or num_points)
   std::int32_t max_string = 4096;         ///< bytes of one string (frame, stage, reason, channel, method, device)
   std::int32_t max_channels = 1024;       ///< status_t.num_channels
   std::int64_t max_keyframes = 10000000;  ///< trajectory_t.num_keyframes
@@ -42,5 +42,17 @@ DecodeResult decode_bounded(const void* data, std::size_t size, const DecodeLimi
 ///        output logs of older loopd builds; its own fingerprint) with the same checks, as today's trajectory_t with
 ///        full = true and total_keyframes = num_keyframes (version 1 always held every keyframe).
 DecodeResult decode_trajectory_v1(const void* data, std::size_t size, const DecodeLimits& limits, trajectory_t* out);
+
+/// @brief Fingerprint of point_cloud_t version 1: the layout before `num_point_times` and `time_offset` were appended
+///        (drive logs and live publishers of older builds).
+inline constexpr std::int64_t kPointCloudV1Hash = 0x3cbfda035faafa31LL;
+
+/// @brief Decodes a point_cloud_t of version 1 (see kPointCloudV1Hash) with the same checks, as today's point_cloud_t
+///        with num_point_times = 0 (no per-point times).
+DecodeResult decode_point_cloud_v1(const void* data, std::size_t size, const DecodeLimits& limits, point_cloud_t* out);
+
+/// @brief Decodes a point_cloud_t of either layout, chosen by its fingerprint: decode_point_cloud_v1 for version 1,
+///        decode_bounded otherwise (whose reason then names a wrong fingerprint). What every scan reader uses.
+DecodeResult decode_any_point_cloud(const void* data, std::size_t size, const DecodeLimits& limits, point_cloud_t* out);
 
 }  // namespace loopd

@@ -82,6 +82,12 @@ class LogReader {
     if (!r.ok && why) *why = r.reason + " (byte " + std::to_string(r.offset) + ")";
     return r.ok;
   }
+  /// @brief A point_cloud_t of either layout (decode_any_point_cloud: logs of older builds have no per-point times).
+  static bool decode(const LogEvent& event, point_cloud_t* msg, std::string* why = nullptr) {
+    DecodeResult r = decode_any_point_cloud(event.data.data(), event.data.size(), DecodeLimits{}, msg);
+    if (!r.ok && why) *why = r.reason + " (byte " + std::to_string(r.offset) + ")";
+    return r.ok;
+  }
 
  private:
   std::FILE* file_ = nullptr;

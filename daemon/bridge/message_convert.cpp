@@ -28,6 +28,12 @@ point_cloud_t to_message(const PointCloud& cloud, std::int64_t utime, std::int64
     msg.num_ring_indices = 0;
   }
   msg.num_rings = static_cast<int16_t>(cloud.num_rings);
+  if (cloud.has_time()) {
+    msg.num_point_times = static_cast<int32_t>(n);
+    msg.time_offset = cloud.time;
+  } else {
+    msg.num_point_times = 0;
+  }
   return msg;
 }
 
@@ -45,6 +51,18 @@ bool from_message(const point_cloud_t& msg, PointCloud* cloud, std::string* erro
     *error = "point_cloud_t num_rings = " + std::to_string(msg.num_rings) + " is outside 0.." + std::to_string(kMaxRings);
     return false;
   }
+  const bool has_times = msg.num_point_times != 0;
+  if ((has_times && msg.num_point_times != msg.num_points) || (has_times && msg.time_offset.size() != n)) {
+    *error = "point_cloud_t num_point_times is neither 0 nor num_points";
+    return false;
+  }
+  for (std::size_t i = 0; has_times && i < n; ++i) {
+    const float t = msg.time_offset[i];
+    if (!(std::abs(t) <= kMaxPointTimeOffset)) {  // NaN fails too
+      *error = "point_cloud_t time_offset " + std::to_string(t) + " s is not finite or beyond " + std::to_string(kMaxPointTimeOffset) + " s";
+      return false;
+    }
+  }
   *cloud = PointCloud();
   cloud->points.resize(n);
   for (std::size_t i = 0; i < n; ++i) cloud->points[i] = Eigen::Vector3f(msg.x[i], msg.y[i], msg.z[i]);
@@ -54,6 +72,7 @@ bool from_message(const point_cloud_t& msg, PointCloud* cloud, std::string* erro
     for (std::size_t i = 0; i < n; ++i) cloud->ring[i] = static_cast<std::uint16_t>(msg.ring[i] < 0 ? 0 : msg.ring[i]);
     cloud->num_rings = msg.num_rings;
   }
+  if (has_times) cloud->time = msg.time_offset;
   return true;
 }
 

@@ -2,6 +2,7 @@
 // log reader.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <random>
@@ -43,6 +44,50 @@ point_cloud_t small_scan(int n) {
   m.ring.assign(static_cast<std::size_t>(n), 3);
   m.num_rings = 16;
   return m;
+}
+
+point_cloud_t with_times(point_cloud_t m) {
+  m.num_point_times = m.num_points;
+  for (int i = 0; i < m.num_points; ++i) m.time_offset.push_back(-0.1f + 0.02f * static_cast<float>(i));
+  return m;
+}
+
+/// Big-endian bytes, as LCM writes them, for building messages of older layouts by hand.
+struct Bytes {
+  std::vector<std::uint8_t> b;
+  void be(std::uint64_t v, int width) {
+    for (int i = width - 1; i >= 0; --i) b.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+  }
+  void f32(float v) {
+    std::uint32_t u;
+    std::memcpy(&u, &v, 4);
+    be(u, 4);
+  }
+  void str(const std::string& s) {
+    be(s.size() + 1, 4);
+    b.insert(b.end(), s.begin(), s.end());
+    b.push_back(0);
+  }
+};
+
+/// A point_cloud_t of version 1 (lcmtypes/point_cloud_t.lcm before num_point_times and time_offset), byte by byte:
+/// two points with rings.
+std::vector<std::uint8_t> point_cloud_v1_bytes() {
+  Bytes m;
+  m.be(0x3cbfda035faafa31ull, 8);  // version 1's fingerprint, as lcm-gen computed it for that layout
+  m.be(1234567, 8);                // utime
+  m.be(42, 8);                     // seq
+  m.str("velodyne");
+  m.be(2, 4);  // num_points
+  for (float v : {1.0f, -2.0f}) m.f32(v);
+  for (float v : {0.5f, 3.25f}) m.f32(v);
+  for (float v : {-1.5f, 0.0f}) m.f32(v);
+  for (float v : {7.0f, 9.0f}) m.f32(v);
+  m.be(2, 4);  // num_ring_indices
+  m.be(3, 2);
+  m.be(15, 2);
+  m.be(16, 2);  // num_rings
+  return m.b;
 }
 
 // Offset of num_points in a point_cloud_t: fingerprint, utime, seq, frame (int32 length + bytes with NUL).
@@ -219,6 +264,7 @@ TEST_CASE("the crafted scans that stopped the daemon are refused with the field 
 
 TEST_CASE("every truncation and 2000 random byte flips of every message type are refused or decode exactly") {
   check_truncations_and_flips(small_scan(3));
+  check_truncations_and_flips(with_times(small_scan(3)));
   check_truncations_and_flips(sample_status());
   check_truncations_and_flips(sample_trajectory(2));
   check_truncations_and_flips(sample_event());
@@ -360,4 +406,85 @@ TEST_CASE("trajectory_t: full and total_keyframes decode, and a version-1 messag
   std::memcpy(trailing.data(), v1_hash, 8);
   trailing.push_back(0);
   CHECK(decode_trajectory_v1(trailing.data(), trailing.size(), DecodeLimits{}, &upgraded).reason == "end of message: 1 trailing bytes");
+}
+
+TEST_CASE("point_cloud_t: per-point times decode; num_point_times other than 0 or num_points is refused before LCM's decoder") {
+  const point_cloud_t scan = with_times(small_scan(3));
+  std::vector<std::uint8_t> b = encode(scan);
+  point_cloud_t out;
+  REQUIRE(decode_bounded(b.data(), b.size(), DecodeLimits{}, &out).ok);
+  REQUIRE(out.num_point_times == 3);
+  CHECK(out.time_offset == scan.time_offset);
+
+  // num_point_times sits after num_rings: 3 points x 4 floats, 3 rings, num_rings.
+  const std::size_t at = num_points_offset(scan) + 4 + 3 * 16 + 4 + 3 * 2 + 2;
+  for (std::int32_t n : {2, 4, -1, 2147483647}) {
+    std::vector<std::uint8_t> bad = b;
+    put_int32(&bad, at, n);
+    const DecodeResult r = decode_bounded(bad.data(), bad.size(), DecodeLimits{}, &out);
+    CHECK_FALSE(r.ok);
+    CHECK(r.reason == "num_point_times: = " + std::to_string(n) + " is neither 0 nor num_points (3)");
+    CHECK(r.offset == at);
+  }
+  std::vector<std::uint8_t> cut(b.begin(), b.end() - 4);  // the times cut short
+  DecodeResult r = decode_bounded(cut.data(), cut.size(), DecodeLimits{}, &out);
+  CHECK(r.reason == "num_point_times: = 3 needs 12 bytes, 8 left");
+  std::vector<std::uint8_t> none = encode(small_scan(3));  // 0: no times
+  REQUIRE(decode_bounded(none.data(), none.size(), DecodeLimits{}, &out).ok);
+  CHECK(out.num_point_times == 0);
+  CHECK(out.time_offset.empty());
+}
+
+TEST_CASE("a point_cloud_t of version 1 (before per-point times), built from bytes, decodes with no times") {
+  const std::vector<std::uint8_t> v1 = point_cloud_v1_bytes();
+  point_cloud_t out;
+  CHECK(decode_bounded(v1.data(), v1.size(), DecodeLimits{}, &out).reason.rfind("fingerprint", 0) == 0);  // not today's type
+  REQUIRE(decode_point_cloud_v1(v1.data(), v1.size(), DecodeLimits{}, &out).ok);
+  point_cloud_t any;
+  REQUIRE(decode_any_point_cloud(v1.data(), v1.size(), DecodeLimits{}, &any).ok);
+  for (const point_cloud_t* m : {&out, &any}) {
+    CHECK(m->utime == 1234567);
+    CHECK(m->seq == 42);
+    CHECK(m->frame == "velodyne");
+    REQUIRE(m->num_points == 2);
+    CHECK(m->x[1] == -2.0f);
+    CHECK(m->y[1] == 3.25f);
+    CHECK(m->z[0] == -1.5f);
+    CHECK(m->intensity[1] == 9.0f);
+    CHECK(m->ring == std::vector<std::int16_t>{3, 15});
+    CHECK(m->num_rings == 16);
+    CHECK(m->num_point_times == 0);
+    CHECK(m->time_offset.empty());
+  }
+  // Upgraded exactly as trajectory_t version 1 is: today's fingerprint, the same fields, num_point_times = 0 appended.
+  std::vector<std::uint8_t> today = encode(out);
+  REQUIRE(today.size() == v1.size() + 4);
+  CHECK(std::equal(v1.begin() + 8, v1.end(), today.begin() + 8));
+  CHECK(std::vector<std::uint8_t>(today.end() - 4, today.end()) == std::vector<std::uint8_t>(4, 0));
+
+  // Today's bytes decode through decode_any_point_cloud too, and are not version 1.
+  const std::vector<std::uint8_t> now = encode(with_times(small_scan(2)));
+  REQUIRE(decode_any_point_cloud(now.data(), now.size(), DecodeLimits{}, &any).ok);
+  CHECK(any.num_point_times == 2);
+  CHECK(decode_point_cloud_v1(now.data(), now.size(), DecodeLimits{}, &out).reason.find("fingerprint") == 0);
+
+  // A damaged version-1 message is refused with the field and offset, by either function.
+  std::vector<std::uint8_t> bad = v1;
+  const std::size_t at = 8 + 8 + 8 + 4 + 9;  // num_points
+  put_int32(&bad, at, 3);
+  DecodeResult r = decode_any_point_cloud(bad.data(), bad.size(), DecodeLimits{}, &any);
+  CHECK_FALSE(r.ok);
+  CHECK(r.reason.rfind("num_points: = 3 needs", 0) == 0);
+  CHECK(r.offset == at);
+  std::vector<std::uint8_t> trailing = v1;
+  trailing.push_back(0);
+  CHECK(decode_point_cloud_v1(trailing.data(), trailing.size(), DecodeLimits{}, &out).reason == "end of message: 1 trailing bytes");
+  CHECK_FALSE(decode_any_point_cloud(v1.data(), 7, DecodeLimits{}, &any).ok);
+  CHECK_FALSE(decode_any_point_cloud(nullptr, 0, DecodeLimits{}, &any).ok);
+
+  // Every reader of drive logs takes it: LogReader::decode for point_cloud_t.
+  LogEvent ev;
+  ev.data = v1;
+  CHECK(LogReader::decode(ev, &any));
+  CHECK(any.utime == 1234567);
 }

@@ -1,6 +1,8 @@
 #include <catch2/catch.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include <cmath>
+
 #include <loopd/loop_event_t.hpp>
 #include <loopd/status_t.hpp>
 #include <loopd/trajectory_t.hpp>
@@ -49,6 +51,36 @@ TEST_CASE("point_cloud_t round-trips through LCM with rings and intensity") {
   CHECK(back.intensity[1] == 9.f);
   CHECK(back.ring[1] == 60);
   CHECK(back.num_rings == 64);
+}
+
+TEST_CASE("point_cloud_t carries per-point times when the cloud has them; bad times are refused") {
+  PointCloud cloud;
+  cloud.points = {{1.f, 2.f, 3.f}, {-4.f, 5.5f, 0.25f}, {0.f, 1.f, 0.f}};
+  const point_cloud_t none = round_trip(to_message(cloud, 1, 1, "lidar"));
+  CHECK(none.num_point_times == 0);
+  PointCloud back;
+  std::string error;
+  REQUIRE(from_message(none, &back, &error));
+  CHECK_FALSE(back.has_time());
+
+  cloud.time = {-0.099f, -0.05f, 0.0f};
+  point_cloud_t msg = round_trip(to_message(cloud, 2, 2, "lidar"));
+  REQUIRE(msg.num_point_times == 3);
+  REQUIRE(from_message(msg, &back, &error));
+  REQUIRE(back.has_time());
+  CHECK(back.time == cloud.time);
+
+  msg.time_offset[1] = std::nanf("");
+  CHECK_FALSE(from_message(msg, &back, &error));
+  CHECK(error.find("time_offset") != std::string::npos);
+  msg.time_offset[1] = -1.5f;  // beyond kMaxPointTimeOffset: another clock, not a time within the sweep
+  CHECK_FALSE(from_message(msg, &back, &error));
+  msg.time_offset[1] = -1.0f;
+  CHECK(from_message(msg, &back, &error));
+  msg.num_point_times = 2;
+  msg.time_offset.resize(2);
+  CHECK_FALSE(from_message(msg, &back, &error));
+  CHECK(error.find("num_point_times") != std::string::npos);
 }
 
 TEST_CASE("pose_t round-trips, and non-finite poses are refused") {

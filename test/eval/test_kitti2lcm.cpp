@@ -199,6 +199,7 @@ TEST_CASE("kitti2lcm round-trips a synthetic KITTI-format folder") {
       CHECK(dr.scans[u].points[3].x() == 3.0f);
       CHECK(dr.scans[u].points[3].y() == -2.0f + static_cast<float>(i));
       CHECK(dr.scans[u].intensity[4] == Approx(0.4f));
+      CHECK_FALSE(dr.scans[u].has_time());  // KITTI .bin scans have no per-point times: num_point_times = 0
       CHECK(dr.gt[u].utime == dr.scan_utimes[u]);
     }
     // utime = 1 s offset + times.txt

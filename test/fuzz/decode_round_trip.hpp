@@ -9,13 +9,16 @@
 
 namespace loopd::fuzz {
 
-template <typename Msg>
-int decode_round_trip(const std::uint8_t* data, std::size_t size) {
+inline DecodeLimits fuzz_limits() {
   DecodeLimits limits;
   limits.max_points = 100000;  // small caps so a valid huge message cannot exhaust the fuzzer's memory
   limits.max_keyframes = 100000;
-  Msg msg;
-  const DecodeResult r = decode_bounded(data, size, limits, &msg);
+  return limits;
+}
+
+/// The outcome of a decode: a rejection says why and where; an accepted message encodes to exactly `expected`.
+template <typename Msg>
+int check_decoded(const DecodeResult& r, const Msg& msg, std::size_t size, const std::uint8_t* expected, std::size_t expected_size) {
   static const bool verbose = std::getenv("LOOPD_FUZZ_VERBOSE") != nullptr;  // to see what a reproducer does
   if (verbose) std::fprintf(stderr, "decode %zu bytes: %s (offset %zu)\n", size, r.ok ? "ok" : r.reason.c_str(), r.offset);
   if (!r.ok) {
@@ -24,11 +27,33 @@ int decode_round_trip(const std::uint8_t* data, std::size_t size) {
     return 0;
   }
   const int encoded_size = msg.getEncodedSize();
-  check(encoded_size >= 0 && static_cast<std::size_t>(encoded_size) == size, "re-encoded size equals the input size");
-  std::vector<std::uint8_t> out(size);
+  check(encoded_size >= 0 && static_cast<std::size_t>(encoded_size) == expected_size, "re-encoded size equals the input size");
+  std::vector<std::uint8_t> out(expected_size);
   check(msg.encode(out.data(), 0, static_cast<int>(out.size())) == encoded_size, "the message encodes");
-  for (std::size_t i = 0; i < size; ++i) check(out[i] == data[i], "the message encodes back to the input bytes");
+  for (std::size_t i = 0; i < expected_size; ++i) check(out[i] == expected[i], "the message encodes back to the input bytes");
   return 0;
+}
+
+template <typename Msg>
+int decode_round_trip(const std::uint8_t* data, std::size_t size) {
+  Msg msg;
+  const DecodeResult r = decode_bounded(data, size, fuzz_limits(), &msg);
+  return check_decoded(r, msg, size, data, size);
+}
+
+/// point_cloud_t of either layout (decode_any_point_cloud): today's re-encodes to the input; a version-1 message to
+/// the input with today's fingerprint and num_point_times = 0 appended.
+inline int decode_any_point_cloud_round_trip(const std::uint8_t* data, std::size_t size) {
+  point_cloud_t msg;
+  const DecodeResult r = decode_any_point_cloud(data, size, fuzz_limits(), &msg);
+  std::int64_t hash = 0;
+  for (std::size_t i = 0; i < 8 && i < size; ++i) hash = static_cast<std::int64_t>((static_cast<std::uint64_t>(hash) << 8) | data[i]);
+  if (size < 8 || hash != kPointCloudV1Hash) return check_decoded(r, msg, size, data, size);
+  std::vector<std::uint8_t> expected(data, data + size);
+  const auto today = static_cast<std::uint64_t>(point_cloud_t::getHash());
+  for (int i = 0; i < 8; ++i) expected[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(today >> (56 - 8 * i));
+  expected.insert(expected.end(), 4, 0);
+  return check_decoded(r, msg, size, expected.data(), expected.size());
 }
 
 }  // namespace loopd::fuzz

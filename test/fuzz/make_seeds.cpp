@@ -170,6 +170,14 @@ void messages() {
   c.ring = {0, 1, 2, 3, 4};
   c.num_rings = 16;
   put("decode_point_cloud", "five_points_rings", encode(to_message(c, 2000, 8, "os1")));
+  c.time = {-0.1f, -0.075f, -0.05f, -0.025f, 0.0f};
+  put("decode_point_cloud", "five_points_rings_times", encode(to_message(c, 3000, 9, "os1")));
+  // Version 1 (before per-point times): today's bytes without num_point_times, with that version's fingerprint.
+  c.time.clear();
+  std::string v1 = encode(to_message(c, 4000, 10, "velodyne"));
+  v1.resize(v1.size() - 4);
+  for (int i = 0; i < 8; ++i) v1[static_cast<std::size_t>(i)] = static_cast<char>(static_cast<std::uint64_t>(kPointCloudV1Hash) >> (56 - 8 * i));
+  put("decode_point_cloud", "five_points_rings_v1", v1);
   StampedPose p;
   p.utime = 123456;
   p.T_world_sensor = small_trajectory(3).back();

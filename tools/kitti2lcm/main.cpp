@@ -174,6 +174,7 @@ int main(int argc, char** argv) {
       if (!read.ok) return fail(read.error);
       cloud = std::move(read.cloud);
       if (model) assign_rings(*model, &cloud);
+      cloud.time.clear();  // KITTI scans have no per-point times: point_cloud_t.num_point_times = 0 (unknown)
       if (!writer.write_message(scan_channel, utime, to_message(cloud, utime, seq, frame))) return fail("cannot write to " + out);
       ++scans;
       points += static_cast<std::int64_t>(cloud.size());

@@ -27,10 +27,12 @@ std::int64_t read_be64(const std::uint8_t* p) {
   return static_cast<std::int64_t>(v);
 }
 
-/// The utime of an encoded point_cloud_t without decoding its arrays: fingerprint (8 bytes), then int64 utime.
+/// The utime of an encoded point_cloud_t (either layout: both start with fingerprint and int64 utime) without decoding
+/// its arrays.
 bool scan_utime(const LogEvent& ev, std::int64_t* utime) {
   if (ev.data.size() < 16) return false;
-  if (read_be64(ev.data.data()) != point_cloud_t::getHash()) return false;
+  const std::int64_t hash = read_be64(ev.data.data());
+  if (hash != point_cloud_t::getHash() && hash != kPointCloudV1Hash) return false;
   *utime = read_be64(ev.data.data() + 8);
   return true;
 }

@@ -16,11 +16,13 @@ PointCloud filter(const PointCloud& cloud, Keep keep) {
   out.points.reserve(cloud.size());
   const bool has_i = cloud.has_intensity();
   const bool has_r = cloud.ring.size() == cloud.size();
+  const bool has_t = cloud.has_time();
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     if (!keep(cloud.points[i])) continue;
     out.points.push_back(cloud.points[i]);
     if (has_i) out.intensity.push_back(cloud.intensity[i]);
     if (has_r) out.ring.push_back(cloud.ring[i]);
+    if (has_t) out.time.push_back(cloud.time[i]);
   }
   return out;
 }
@@ -49,6 +51,7 @@ PointCloud voxel_downsample(const PointCloud& cloud, double leaf_size) {
   };
   const bool has_i = cloud.has_intensity();
   const bool has_r = cloud.ring.size() == cloud.size();
+  const bool has_t = cloud.has_time();
   VoxelGrid<IntensityAndFirst> grid(leaf_size, cloud.size());
   const double inv = 1.0 / leaf_size;
   for (std::uint32_t i = 0; i < cloud.size(); ++i) {
@@ -68,6 +71,7 @@ PointCloud voxel_downsample(const PointCloud& cloud, double leaf_size) {
     out.points.push_back(v.centroid());
     if (has_i) out.intensity.push_back(static_cast<float>(v.payload.intensity / static_cast<double>(v.count)));
     if (has_r) out.ring.push_back(cloud.ring[v.payload.first]);
+    if (has_t) out.time.push_back(cloud.time[v.payload.first]);
   }
   return out;
 }

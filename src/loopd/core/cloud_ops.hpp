@@ -11,7 +11,7 @@ namespace loopd {
 PointCloud remove_non_finite(const PointCloud& cloud, std::size_t* removed = nullptr);
 
 /// @brief Voxel-grid downsampling: one point (the centroid) per occupied voxel, in voxel key order (VoxelGrid,
-/// core/voxel_grid.hpp). Intensity is averaged too; a voxel keeps the ring of its first point.
+/// core/voxel_grid.hpp). Intensity is averaged too; a voxel keeps the ring and time of its first point.
 /// @param leaf_size [m] voxel edge; <= 0 returns a copy. Points beyond 2^20 voxels of the origin are dropped.
 PointCloud voxel_downsample(const PointCloud& cloud, double leaf_size);
 
