@@ -1,5 +1,6 @@
 // loopd-sim: writes a simulated lidar drive through the procedural town as an lcm-logger file.
-// Channels: LIDAR_SCAN (point_cloud_t), ODOMETRY_POSE and GROUND_TRUTH_POSE (pose_t); event timestamps = utime.
+// Channels: LIDAR_SCAN (point_cloud_t, with per-point times), ODOMETRY_POSE and GROUND_TRUTH_POSE (pose_t, the true
+// pose at the scan's utime, the end of its sweep); event timestamps = utime.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
@@ -36,6 +37,40 @@ int list_sensors(bool json) {
   return 0;
 }
 
+/// Sensor effects: each on by default, each with a flag that turns it off.
+void add_effect_options(CLI::App& app, loopd::SensorEffects* fx) {
+  auto off = [](bool* on) { return [on](std::int64_t) { *on = false; }; };
+  app.add_flag_function("--no-motion-skew", off(&fx->motion_skew),
+                        "instantaneous scans: without it each column is measured at its own time of the sweep (1/rate s, clockwise from behind; "
+                        "the scan is stamped at the sweep's end) from the pose at that time, not motion-compensated");
+  app.add_flag_function("--no-point-times", off(&fx->point_times),
+                        "no per-point times (point_cloud_t.num_point_times = 0); with them, time_offset is each point's time relative to "
+                        "utime (-1/rate .. 0 s; 0 with --no-motion-skew)");
+  app.add_flag_function("--no-dropouts", off(&fx->dropouts),
+                        "only the lidar model's own dropouts: without it returns are also lost at --dropout-rate, more far away, at "
+                        "grazing incidence and on dark surfaces");
+  app.add_option("--dropout-rate", fx->dropout_rate, "rate of lost returns on near, head-on, bright surfaces (x3 at max range, x3 grazing, x2 black)")
+      ->capture_default_str();
+  app.add_flag_function("--no-vegetation", off(&fx->vegetation),
+                        "no bushes and solid tree crowns: without it bushes line some sidewalks and foliage is porous, its points "
+                        "different on every scan (seeded by --seed and the scan)");
+  app.add_option("--foliage-density", fx->foliage_density,
+                 "foliage extinction [1/m]: a ray returns within d m of foliage with probability 1-exp(-density d)")
+      ->capture_default_str();
+}
+
+std::string effects_text(const loopd::SensorEffects& fx) {
+  std::string s;
+  auto add = [&s](bool on, const std::string& name) {
+    if (on) s += (s.empty() ? "" : ", ") + name;
+  };
+  add(fx.motion_skew, "motion skew");
+  add(fx.point_times, "point times");
+  add(fx.dropouts, "dropouts " + fmt(fx.dropout_rate, 3));
+  add(fx.vegetation, "vegetation");
+  return s.empty() ? "none" : s;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -58,6 +93,7 @@ int main(int argc, char** argv) {
   app.add_option("--yaw-walk", cfg.yaw_random_walk_deg, "odometry yaw random walk [deg/step]")->capture_default_str();
   app.add_option("--translation-noise", cfg.translation_noise, "odometry translation noise [m/step]")->capture_default_str();
   app.add_option("--burst-probability", cfg.burst_probability, "chance per step of a degraded odometry stretch")->capture_default_str();
+  add_effect_options(app, &cfg.effects);
   app.add_option("--threads", threads, "ray-casting threads (0 = all cores)")->capture_default_str();
   app.add_flag("--list-sensors", list, "list the lidar models and exit");
   app.add_flag("--json", json, "print one JSON object as the last line");
@@ -145,6 +181,7 @@ int main(int argc, char** argv) {
 
   loopd::tools::Table table({"quantity", "value"});
   table.add({"sensor", drive.model.name});
+  table.add({"sensor effects", effects_text(cfg.effects)});
   table.add({"scans", std::to_string(n)});
   table.add({"points/scan (mean / min / max)", fmt(pts.mean, 0) + " / " + fmt(min_pts, 0) + " / " + fmt(pts.max, 0)});
   table.add({"route length [m]", fmt(drive.route_length(), 1)});
@@ -161,6 +198,13 @@ int main(int argc, char** argv) {
   if (json) {
     loopd::tools::print_json_line({{"out", out},
                                    {"sensor", drive.model.name},
+                                   {"effects",
+                                    {{"motion_skew", cfg.effects.motion_skew},
+                                     {"point_times", cfg.effects.point_times},
+                                     {"dropouts", cfg.effects.dropouts},
+                                     {"dropout_rate", cfg.effects.dropout_rate},
+                                     {"vegetation", cfg.effects.vegetation},
+                                     {"foliage_density", cfg.effects.foliage_density}}},
                                    {"scans", n},
                                    {"seed", cfg.seed},
                                    {"points_per_scan_mean", pts.mean},

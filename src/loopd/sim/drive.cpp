@@ -73,19 +73,13 @@ std::vector<Waypoint> route_waypoints(const std::string& route) {
   return w;
 }
 
-struct PathSample {
-  Eigen::Vector2d p;
-  int visit;
-  double s;  ///< arc length of the driven (offset) path
-};
-
 double smoothstep(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3.0 - 2.0 * x);
 }
 
 /// Dense samples of one lap of the driven path (lane offset applied), arc length filled.
-std::vector<PathSample> build_path(const Town& town, const DriveConfig& c) {
+std::vector<DrivePathPoint> build_path(const Town& town, const DriveConfig& c) {
   const auto w = route_waypoints(c.route);
   const int K = static_cast<int>(w.size());
   std::vector<Eigen::Vector2d> P(static_cast<std::size_t>(K));
@@ -138,7 +132,7 @@ std::vector<PathSample> build_path(const Town& town, const DriveConfig& c) {
   }
   // Offset along the left normal of the centre line, then arc length.
   const std::size_t N = raw.size();
-  std::vector<PathSample> out(N);
+  std::vector<DrivePathPoint> out(N);
   for (std::size_t q = 0; q < N; ++q) {
     const Eigen::Vector2d d = raw[(q + 1) % N].c - raw[(q + N - 1) % N].c;
     const Eigen::Vector2d t = d.norm() > 1e-9 ? Eigen::Vector2d(d.normalized()) : Eigen::Vector2d(1, 0);
@@ -148,6 +142,28 @@ std::vector<PathSample> build_path(const Town& town, const DriveConfig& c) {
     out[q].s = q == 0 ? 0.0 : out[q - 1].s + (out[q].p - out[q - 1].p).norm();
   }
   return out;
+}
+
+/// Ground-truth pose and visit label after `route_distance` of the route: the path sample at or before it (its lap
+/// repeating), linear between samples, heading from a 1 m chord around the sample (smooth through corners).
+Eigen::Isometry3d path_pose(const Drive& d, double route_distance, int* visit) {
+  const auto& path = d.path;
+  const int lap = static_cast<int>(std::floor(route_distance / d.lap_length));
+  const double s = route_distance - lap * d.lap_length;
+  const auto after = std::upper_bound(path.begin(), path.end(), s, [](double v, const DrivePathPoint& q) { return v < q.s; });
+  const std::size_t cursor = after == path.begin() ? 0 : static_cast<std::size_t>(after - path.begin()) - 1;
+  const DrivePathPoint& a = path[cursor];
+  const DrivePathPoint& b = path[(cursor + 1) % path.size()];
+  const double seg = cursor + 1 < path.size() ? b.s - a.s : d.lap_length - a.s;
+  const double alpha = seg > 1e-12 ? std::clamp((s - a.s) / seg, 0.0, 1.0) : 0.0;
+  const Eigen::Vector2d p = a.p + alpha * (b.p - a.p);
+  const std::size_t n = path.size();
+  const std::size_t back = (cursor + n - 10) % n, fwd = (cursor + 11) % n;
+  const Eigen::Vector2d t = path[fwd].p - path[back].p;
+  const double yaw = std::atan2(t.y(), t.x());
+  constexpr int kVisitsPerLap = 3;
+  if (visit) *visit = a.visit + kVisitsPerLap * lap;
+  return ground_pose(d.town, p.x(), p.y(), yaw, d.config.sensor_height);
 }
 
 }  // namespace
@@ -166,6 +182,7 @@ std::optional<std::string> DriveConfig::validate() const {
   if (yaw_random_walk_deg < 0 || translation_noise < 0 || pitch_roll_noise_deg < 0) return std::string("noise sigmas must be >= 0");
   if (burst_probability < 0 || burst_probability > 1 || burst_length < 0 || burst_factor < 1) return std::string("bad burst settings");
   if (base_residual < 0) return std::string("base_residual must be >= 0");
+  if (auto err = effects.validate()) return "effects: " + *err;
   return std::nullopt;
 }
 
@@ -174,7 +191,15 @@ std::uint64_t Drive::scan_seed(int i) const { return detail::hash_combine(config
 PointCloud Drive::simulate(int i, int num_threads) const {
   if (i < 0 || i >= static_cast<int>(scans.size())) return PointCloud{};
   const DriveScan& s = scans[static_cast<std::size_t>(i)];
-  return simulate_scan(town, model, s.T_world_sensor, scan_seed(i), num_threads, s.visit);
+  const SensorPoseAt pose_at = [this, &s](double t) {
+    return t == 0.0 ? s.T_world_sensor : pose_at_distance(s.route_distance + config.speed * t);  // constant speed
+  };
+  return simulate_sweep(town, model, pose_at, 1.0 / config.rate_hz, config.effects, scan_seed(i), num_threads, s.visit);
+}
+
+Eigen::Isometry3d Drive::pose_at_distance(double route_distance) const {
+  if (path.empty() || !(lap_length > 0.0)) return Eigen::Isometry3d::Identity();
+  return path_pose(*this, route_distance, nullptr);
 }
 
 int Drive::num_visits() const {
@@ -207,35 +232,18 @@ Drive make_drive(const DriveConfig& config) {
   }
   d.model = *lidar_model_from_name(config.sensor);
   d.town = make_town(config.seed);
-  const auto path = build_path(d.town, config);
-  d.lap_length = path.back().s + (path.front().p - path.back().p).norm();
+  d.path = build_path(d.town, config);
+  d.lap_length = d.path.back().s + (d.path.front().p - d.path.back().p).norm();
   const double step = config.speed / config.rate_hz;
-  const int visits_per_lap = 3;
 
-  // Ground truth.
+  // Ground truth at each scan's stamp.
   d.scans.resize(static_cast<std::size_t>(config.num_scans));
-  std::size_t cursor = 0;
   for (int i = 0; i < config.num_scans; ++i) {
     DriveScan& sc = d.scans[static_cast<std::size_t>(i)];
     sc.index = i;
     sc.utime = config.start_utime + static_cast<std::int64_t>(std::llround(1e6 * i / config.rate_hz));
     sc.route_distance = step * i;
-    const int lap = static_cast<int>(std::floor(sc.route_distance / d.lap_length));
-    const double s = sc.route_distance - lap * d.lap_length;
-    if (i == 0 || s < path[cursor].s) cursor = 0;
-    while (cursor + 1 < path.size() && path[cursor + 1].s <= s) ++cursor;
-    const PathSample& a = path[cursor];
-    const PathSample& b = path[(cursor + 1) % path.size()];
-    const double seg = cursor + 1 < path.size() ? b.s - a.s : d.lap_length - a.s;
-    const double alpha = seg > 1e-12 ? std::clamp((s - a.s) / seg, 0.0, 1.0) : 0.0;
-    const Eigen::Vector2d p = a.p + alpha * (b.p - a.p);
-    // Heading from a 1 m chord around the sample (smooth through corners).
-    const std::size_t n = path.size();
-    const std::size_t back = (cursor + n - 10) % n, fwd = (cursor + 11) % n;
-    const Eigen::Vector2d t = path[fwd].p - path[back].p;
-    const double yaw = std::atan2(t.y(), t.x());
-    sc.T_world_sensor = ground_pose(d.town, p.x(), p.y(), yaw, config.sensor_height);
-    sc.visit = a.visit + visits_per_lap * lap;
+    sc.T_world_sensor = path_pose(d, sc.route_distance, &sc.visit);
   }
 
   // Odometry: ground-truth increments with systematic bias, random walk and degraded stretches.

@@ -8,6 +8,7 @@
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/point_cloud.hpp"
 #include "loopd/core/pose.hpp"
+#include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
 
 namespace loopd {
@@ -47,19 +48,30 @@ struct DriveConfig {
   int burst_length = 20;                   ///< [steps] length of a degraded stretch
   double burst_factor = 10.0;              ///< noise multiplier inside a degraded stretch
   double base_residual = 0.03;             ///< [m] residual of a clean odometry step
+  /// Motion skew, dropouts, vegetation and per-point times (all on; SensorEffects::none() for instantaneous scans).
+  /// The sweep lasts 1 / rate_hz: 0.1 s at 10 Hz, the rate of KITTI's HDL-64E (Geiger et al. 2013; the VLP-16 turns at
+  /// 5-20 Hz, the HDL-64E S2 at 5-15 Hz, per their datasheets).
+  SensorEffects effects;
   std::optional<std::string> validate() const;
 };
 
 /// @brief One scan of a drive.
 struct DriveScan {
   int index = 0;
-  std::int64_t utime = 0;                                            ///< [us]
-  Eigen::Isometry3d T_world_sensor = Eigen::Isometry3d::Identity();  ///< ground truth
+  std::int64_t utime = 0;                                            ///< [us] stamp: the end of the sweep
+  Eigen::Isometry3d T_world_sensor = Eigen::Isometry3d::Identity();  ///< ground truth at utime
   StampedPose odometry;         ///< drifting odometry (starts at the ground truth); residual [m] of the step ending here
   int visit = 0;                ///< visit counter (which state the movable cars are in)
   double route_distance = 0.0;  ///< [m] travelled since the start
   double injected_error = 0.0;  ///< [m] random drift injected on the step ending here (translation + 10 m * yaw)
   bool degraded = false;        ///< inside a degraded (burst) stretch
+};
+
+/// @brief A sample of the driven path of one lap.
+struct DrivePathPoint {
+  Eigen::Vector2d p = Eigen::Vector2d::Zero();  ///< [m] planar position
+  int visit = 0;                                ///< visit label within the lap
+  double s = 0.0;                               ///< [m] arc length from the lap's start
 };
 
 /// @brief A drive: town, lidar model and per-scan poses. Scans are simulated on demand.
@@ -68,11 +80,16 @@ struct Drive {
   LidarModel model;
   Town town;
   std::vector<DriveScan> scans;
-  double lap_length = 0.0;  ///< [m] route length of one lap
-  std::string error;        ///< non-empty when the config was invalid (scans empty)
+  double lap_length = 0.0;           ///< [m] route length of one lap
+  std::vector<DrivePathPoint> path;  ///< one lap of the driven path (lane offsets applied), 5 cm apart
+  std::string error;                 ///< non-empty when the config was invalid (scans empty)
 
-  /// @brief Ray-casts scan i (noise seed = hash(config.seed, i), cars as on scans[i].visit).
+  /// @brief Ray-casts scan i (noise seed = hash(config.seed, i), cars as on scans[i].visit) with config.effects: with
+  /// motion skew, its sweep follows the route from scans[i].route_distance - speed / rate_hz to scans[i].route_distance.
   PointCloud simulate(int i, int num_threads) const;
+  /// @brief Ground-truth sensor pose after `route_distance` [m] of the route (any real number: laps repeat); the pose of
+  /// scans[i] is pose_at_distance(scans[i].route_distance).
+  Eigen::Isometry3d pose_at_distance(double route_distance) const;
   /// @brief Seed of scan i's noise.
   std::uint64_t scan_seed(int i) const;
   /// @brief Route distance covered [m].

@@ -268,11 +268,13 @@ void surface(const Town& town, const Ray& r, const Hit& hit, Eigen::Vector3d* n,
   }
 }
 
-std::vector<std::uint8_t> enabled_for_visit(const Town& town, int visit) {
+/// Primitives a ray can hit on `visit`: the movable objects in their state of that visit; bushes only with vegetation.
+std::vector<std::uint8_t> enabled_for_visit(const Town& town, int visit, bool vegetation) {
   std::vector<std::uint8_t> enabled(town.primitives.size(), 1);
   for (std::size_t k = 0; k < town.primitives.size(); ++k) {
     const Primitive& p = town.primitives[k];
     if (p.movable_id >= 0) enabled[k] = town.active_variant(p.movable_id, visit) == p.variant ? 1 : 0;
+    if (p.bush && !vegetation) enabled[k] = 0;
   }
   return enabled;
 }
@@ -285,90 +287,214 @@ Ray make_ray(const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
   return r;
 }
 
+// Random streams of one ray, all drawn from its hash h = hash(seed, ray): h itself decides the model's dropout and
+// mix64(h + 1) the range noise (as before the sensor effects existed); the effects draw from these.
+constexpr std::uint64_t kDropoutStream = 0xD50F7A11ull;
+constexpr std::uint64_t kFoliageStream = 0xF011A6E5ull;
+constexpr int kMaxFoliagePasses = 4;  ///< foliage a ray may pass through before it is given up
+constexpr double kMaxDropout = 0.95;
+
+/// Distance along the ray to where it leaves sphere p.
+double sphere_exit(const Primitive& p, const Ray& r) {
+  const Eigen::Vector3d oc = r.o - p.a;
+  const double B = oc.dot(r.d);
+  const double C = oc.squaredNorm() - p.radius * p.radius;
+  return -B + std::sqrt(std::max(0.0, B * B - C));
+}
+
+/// The nearest hit with porous foliage: a ray entering a vegetation sphere returns from inside it with probability
+/// 1 - exp(-density * chord), at depth -ln(1 - u) / density for the draw u that decided it (the Beer-Lambert depth
+/// given a return within the chord), unless something solid inside (a trunk) comes first; else it goes on.
+Hit trace_foliage(const Town& town, const std::vector<std::uint8_t>& enabled, const Ray& r, double max_range, double density, std::uint64_t h) {
+  Ray cur = r;
+  double travelled = 0.0;
+  Hit hit = trace(town, enabled, cur, max_range);
+  for (int pass = 0; pass < kMaxFoliagePasses; ++pass) {
+    if (hit.prim < 0 || !town.primitives[static_cast<std::size_t>(hit.prim)].vegetation) {
+      if (hit.prim != kNone) hit.t += travelled;
+      return hit;
+    }
+    const int foliage = hit.prim;
+    const double chord = std::max(0.0, sphere_exit(town.primitives[static_cast<std::size_t>(foliage)], cur) - hit.t);
+    const double u = detail::hash_uniform(detail::mix64(h ^ (kFoliageStream + static_cast<std::uint64_t>(pass))));
+    const double depth = u < 1.0 - std::exp(-density * chord) ? -std::log1p(-u) / density : kInf;
+    // Go on from just inside the foliage: its sphere is not hit from inside, what stands in it is.
+    const double enter = hit.t + 1e-6;
+    travelled += enter;
+    if (travelled >= max_range) break;
+    cur = make_ray(cur.o + enter * cur.d, cur.d);
+    hit = trace(town, enabled, cur, max_range - travelled);
+    if (depth < hit.t && travelled + depth < max_range) {
+      Hit leaf;
+      leaf.t = travelled + depth;
+      leaf.prim = foliage;
+      return leaf;
+    }
+  }
+  return Hit{};
+}
+
+/// Probability that SensorEffects::dropouts loses a return.
+double effect_dropout(const SensorEffects& fx, double rel_range, double cos_inc, double reflectivity) {
+  const double grazing = 1.0 - cos_inc;
+  const double dark = std::max(0.0, 0.5 - reflectivity) / 0.5;
+  const double p = fx.dropout_rate * (1.0 + fx.dropout_range_gain * rel_range * rel_range) * (1.0 + fx.dropout_grazing_gain * grazing * grazing) *
+                   (1.0 + fx.dropout_dark_gain * dark);
+  return std::min(p, kMaxDropout);
+}
+
+/// What a sweep needs once: beam direction tables, each column's sensor pose and time, the primitives visible.
+struct Sweep {
+  std::vector<double> cos_el, sin_el, cos_az, sin_az;
+  std::vector<Eigen::Matrix3d> R;  ///< world rotation of the sensor per column (one entry without motion skew)
+  std::vector<Eigen::Vector3d> o;  ///< world position of the sensor, likewise
+  std::vector<float> time;         ///< [s] measurement time of each column relative to the stamp
+  std::vector<std::uint8_t> enabled;
+};
+
+Sweep make_sweep(const Town& town, const LidarModel& model, const SensorPoseAt& pose_at, double period, const SensorEffects& fx, int visit) {
+  Sweep s;
+  const int rings = model.num_rings, cols = model.azimuth_steps;
+  for (int r = 0; r < rings; ++r) {
+    const double e = model.vertical_angles_deg[static_cast<std::size_t>(r)] * kPi / 180.0;
+    s.cos_el.push_back(std::cos(e));
+    s.sin_el.push_back(std::sin(e));
+  }
+  for (int c = 0; c < cols; ++c) {
+    const double az = 2.0 * kPi * static_cast<double>(c) / static_cast<double>(cols);
+    s.cos_az.push_back(std::cos(az));
+    s.sin_az.push_back(std::sin(az));
+    const double t = fx.motion_skew ? column_time_offset(c, cols, period) : 0.0;
+    s.time.push_back(static_cast<float>(t));
+    if (fx.motion_skew || c == 0) {
+      const Eigen::Isometry3d T = pose_at(t);
+      s.R.push_back(T.linear());
+      s.o.push_back(T.translation());
+    }
+  }
+  s.enabled = enabled_for_visit(town, visit, fx.vegetation);
+  return s;
+}
+
+/// Ray (ring r, column c) of the sweep: the nearest surface, the model's dropouts, the effects' dropouts, range noise.
+/// Leaves *range NaN when nothing returns.
+void cast_sweep_ray(const Town& town, const LidarModel& model, const SensorEffects& fx, const Sweep& s, int c, int r, std::uint64_t seed,
+                    float* range, float* inten) {
+  const auto cu = static_cast<std::size_t>(c), ru = static_cast<std::size_t>(r);
+  const std::size_t ray = cu * static_cast<std::size_t>(model.num_rings) + ru;
+  const Eigen::Vector3d ds(s.cos_el[ru] * s.cos_az[cu], s.cos_el[ru] * s.sin_az[cu], s.sin_el[ru]);
+  const std::size_t pc = s.R.size() == 1 ? 0 : cu;
+  const Ray wr = make_ray(s.o[pc], s.R[pc] * ds);
+  const std::uint64_t h = detail::hash_combine(seed, ray);
+  const Hit hit =
+      fx.vegetation ? trace_foliage(town, s.enabled, wr, model.max_range, fx.foliage_density, h) : trace(town, s.enabled, wr, model.max_range);
+  if (hit.prim == kNone || hit.t < model.min_range) return;
+  Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
+  double refl = 0.0;
+  bool glass = false;
+  surface(town, wr, hit, &n, &refl, &glass);
+  const double cos_inc = std::abs(n.dot(wr.d));
+  const double intensity = std::clamp(refl * (0.3 + 0.7 * cos_inc), 0.0, 1.0);
+  // Dropouts: the model's rate plus weak returns (far and dark or grazing surfaces) that the receiver misses.
+  const double rel = hit.t / model.max_range;
+  const double p_drop = glass ? 0.7 : model.dropout_rate + 1.5 * rel * rel * (1.0 - intensity);
+  if (detail::hash_uniform(h) < p_drop) return;
+  if (fx.dropouts && detail::hash_uniform(detail::mix64(h ^ kDropoutStream)) < effect_dropout(fx, rel, cos_inc, refl)) return;
+  // Range noise: approximately Gaussian (Irwin-Hall sum of four 16-bit uniforms from one hash; unit variance).
+  const std::uint64_t g = detail::mix64(h + 1);
+  const double sum4 = static_cast<double>((g & 0xFFFF) + ((g >> 16) & 0xFFFF) + ((g >> 32) & 0xFFFF) + (g >> 48)) / 65536.0;
+  const double noise = model.range_noise_sigma * (sum4 - 2.0) * 1.7320508075688772;
+  *range = static_cast<float>(std::max(model.min_range, hit.t + noise));
+  *inten = static_cast<float>(intensity);
+}
+
+/// The returns in ray order (thread-count independent): range times the beam direction in the sensor frame.
+PointCloud compact(const LidarModel& model, const Sweep& s, const std::vector<float>& range, const std::vector<float>& inten, bool times) {
+  PointCloud cloud;
+  cloud.num_rings = model.num_rings;
+  std::size_t count = 0;
+  for (float v : range) count += std::isnan(v) ? 0u : 1u;
+  cloud.points.resize(count);
+  cloud.intensity.resize(count);
+  cloud.ring.resize(count);
+  if (times) cloud.time.resize(count);
+  std::size_t k = 0;
+  for (int c = 0; c < model.azimuth_steps; ++c) {
+    const auto cu = static_cast<std::size_t>(c);
+    for (int r = 0; r < model.num_rings; ++r) {
+      const auto ru = static_cast<std::size_t>(r);
+      const std::size_t ray = cu * static_cast<std::size_t>(model.num_rings) + ru;
+      if (std::isnan(range[ray])) continue;
+      const double t = range[ray];
+      const double ce = s.cos_el[ru];
+      cloud.points[k] =
+          Eigen::Vector3f(static_cast<float>(t * ce * s.cos_az[cu]), static_cast<float>(t * ce * s.sin_az[cu]), static_cast<float>(t * s.sin_el[ru]));
+      cloud.intensity[k] = inten[ray];
+      cloud.ring[k] = static_cast<std::uint16_t>(r);
+      if (times) cloud.time[k] = s.time[cu];
+      ++k;
+    }
+  }
+  return cloud;
+}
+
 }  // namespace
 
+SensorEffects SensorEffects::none() {
+  SensorEffects fx;
+  fx.motion_skew = fx.point_times = fx.dropouts = fx.vegetation = false;
+  return fx;
+}
+
+std::optional<std::string> SensorEffects::validate() const {
+  if (!(dropout_rate >= 0.0 && dropout_rate < 1.0)) return std::string("dropout_rate must be in [0, 1)");
+  if (!(dropout_range_gain >= 0.0) || !(dropout_grazing_gain >= 0.0) || !(dropout_dark_gain >= 0.0)) return std::string("dropout gains must be >= 0");
+  if (!(foliage_density > 0.0 && foliage_density <= 100.0)) return std::string("foliage_density must be in (0, 100] per metre");
+  return std::nullopt;
+}
+
+double column_time_offset(int column, int columns, double period) {
+  if (columns <= 0) return 0.0;
+  const int first = columns / 2;                                   // the column behind the sensor
+  const int k = ((first - column) % columns + columns) % columns;  // firing order: clockwise from behind
+  return -static_cast<double>(columns - 1 - k) * period / static_cast<double>(columns);
+}
+
 double cast_ray(const Town& town, const Eigen::Vector3d& origin, const Eigen::Vector3d& unit_direction, double max_range, int visit) {
-  const auto enabled = enabled_for_visit(town, visit);
+  const auto enabled = enabled_for_visit(town, visit, false);
   const Hit h = trace(town, enabled, make_ray(origin, unit_direction.normalized()), max_range);
   return h.prim == kNone ? kInf : h.t;
 }
 
-PointCloud simulate_scan(const Town& town, const LidarModel& model, const Eigen::Isometry3d& T_world_sensor, std::uint64_t seed, int num_threads,
-                         int visit) {
-  PointCloud cloud;
-  cloud.num_rings = model.num_rings;
-  if (model.validate()) return cloud;
-  const int rings = model.num_rings, cols = model.azimuth_steps;
-  const std::size_t num_rays = static_cast<std::size_t>(rings) * static_cast<std::size_t>(cols);
-  const auto enabled = enabled_for_visit(town, visit);
-
-  std::vector<double> cos_el(static_cast<std::size_t>(rings)), sin_el(static_cast<std::size_t>(rings));
-  for (int r = 0; r < rings; ++r) {
-    const double e = model.vertical_angles_deg[static_cast<std::size_t>(r)] * kPi / 180.0;
-    cos_el[static_cast<std::size_t>(r)] = std::cos(e);
-    sin_el[static_cast<std::size_t>(r)] = std::sin(e);
+PointCloud simulate_sweep(const Town& town, const LidarModel& model, const SensorPoseAt& pose_at, double period, const SensorEffects& effects,
+                          std::uint64_t seed, int num_threads, int visit) {
+  if (model.validate() || effects.validate() || (effects.motion_skew && !(period > 0.0))) {
+    PointCloud empty;
+    empty.num_rings = model.num_rings;
+    return empty;
   }
-  const Eigen::Matrix3d R = T_world_sensor.linear();
-  const Eigen::Vector3d o = T_world_sensor.translation();
-
-  // Per-ray output: range (NaN = no return) and intensity; compacted afterwards in ray order (thread-count independent).
+  const Sweep s = make_sweep(town, model, pose_at, period, effects, visit);
+  const int cols = model.azimuth_steps;
+  const std::size_t num_rays = static_cast<std::size_t>(model.num_rings) * static_cast<std::size_t>(cols);
+  // Per-ray output: range (NaN = no return) and intensity; compacted afterwards in ray order.
   std::vector<float> range(num_rays, std::numeric_limits<float>::quiet_NaN());
   std::vector<float> inten(num_rays, 0.0f);
   const int nt = num_threads > 0 ? num_threads : omp_get_max_threads();
 
 #pragma omp parallel for schedule(dynamic, 8) num_threads(nt)
   for (int c = 0; c < cols; ++c) {
-    const double az = 2.0 * kPi * static_cast<double>(c) / static_cast<double>(cols);
-    const double ca = std::cos(az), sa = std::sin(az);
-    for (int r = 0; r < rings; ++r) {
-      const std::size_t ray = static_cast<std::size_t>(c) * static_cast<std::size_t>(rings) + static_cast<std::size_t>(r);
-      const Eigen::Vector3d ds(cos_el[static_cast<std::size_t>(r)] * ca, cos_el[static_cast<std::size_t>(r)] * sa,
-                               sin_el[static_cast<std::size_t>(r)]);
-      const Ray wr = make_ray(o, R * ds);
-      const Hit hit = trace(town, enabled, wr, model.max_range);
-      if (hit.prim == kNone || hit.t < model.min_range) continue;
-      const std::uint64_t h = detail::hash_combine(seed, ray);
-      Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
-      double refl = 0.0;
-      bool glass = false;
-      surface(town, wr, hit, &n, &refl, &glass);
-      const double cos_inc = std::abs(n.dot(wr.d));
-      const double intensity = std::clamp(refl * (0.3 + 0.7 * cos_inc), 0.0, 1.0);
-      // Dropouts: the model's rate plus weak returns (far and dark or grazing surfaces) that the receiver misses.
-      const double rel = hit.t / model.max_range;
-      const double p_drop = glass ? 0.7 : model.dropout_rate + 1.5 * rel * rel * (1.0 - intensity);
-      if (detail::hash_uniform(h) < p_drop) continue;
-      // Range noise: approximately Gaussian (Irwin-Hall sum of four 16-bit uniforms from one hash; unit variance).
-      const std::uint64_t g = detail::mix64(h + 1);
-      const double sum4 = static_cast<double>((g & 0xFFFF) + ((g >> 16) & 0xFFFF) + ((g >> 32) & 0xFFFF) + (g >> 48)) / 65536.0;
-      const double noise = model.range_noise_sigma * (sum4 - 2.0) * 1.7320508075688772;
-      range[ray] = static_cast<float>(std::max(model.min_range, hit.t + noise));
-      inten[ray] = static_cast<float>(intensity);
+    for (int r = 0; r < model.num_rings; ++r) {
+      const std::size_t ray = static_cast<std::size_t>(c) * static_cast<std::size_t>(model.num_rings) + static_cast<std::size_t>(r);
+      cast_sweep_ray(town, model, effects, s, c, r, seed, &range[ray], &inten[ray]);
     }
   }
+  return compact(model, s, range, inten, effects.point_times);
+}
 
-  std::size_t count = 0;
-  for (float v : range) count += std::isnan(v) ? 0u : 1u;
-  cloud.points.resize(count);
-  cloud.intensity.resize(count);
-  cloud.ring.resize(count);
-  std::size_t k = 0;
-  for (int c = 0; c < cols; ++c) {
-    const double az = 2.0 * kPi * static_cast<double>(c) / static_cast<double>(cols);
-    const double ca = std::cos(az), sa = std::sin(az);
-    for (int r = 0; r < rings; ++r) {
-      const std::size_t ray = static_cast<std::size_t>(c) * static_cast<std::size_t>(rings) + static_cast<std::size_t>(r);
-      if (std::isnan(range[ray])) continue;
-      const double t = range[ray];
-      const double ce = cos_el[static_cast<std::size_t>(r)];
-      cloud.points[k] = Eigen::Vector3f(static_cast<float>(t * ce * ca), static_cast<float>(t * ce * sa),
-                                        static_cast<float>(t * sin_el[static_cast<std::size_t>(r)]));
-      cloud.intensity[k] = inten[ray];
-      cloud.ring[k] = static_cast<std::uint16_t>(r);
-      ++k;
-    }
-  }
-  return cloud;
+PointCloud simulate_scan(const Town& town, const LidarModel& model, const Eigen::Isometry3d& T_world_sensor, std::uint64_t seed, int num_threads,
+                         int visit) {
+  return simulate_sweep(
+      town, model, [&T_world_sensor](double) { return T_world_sensor; }, 0.0, SensorEffects::none(), seed, num_threads, visit);
 }
 
 }  // namespace loopd

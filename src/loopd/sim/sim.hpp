@@ -7,10 +7,12 @@
 ///  - make_other_town(seed): a second town built to the same pattern with no structure in common.       [town.hpp]
 ///  - make_corridor(CorridorConfig): long straight featureless tunnel (GICP degeneracy along x).          [town.hpp]
 ///  - street_pose(town, i, j, direction, along, lateral) / ground_pose(town, x, y, yaw): sensor poses.   [town.hpp]
-///  - simulate_scan(town, model, T_world_sensor, seed, num_threads, visit): a scan at any pose; `visit` selects where
-///    the movable parked cars stand (0 = original, others: moved or gone).                          [lidar_sim.hpp]
+///  - simulate_scan(town, model, T_world_sensor, seed, num_threads, visit): an instantaneous scan at any pose; `visit`
+///    selects where the movable parked cars stand (0 = original, others: moved or gone).             [lidar_sim.hpp]
+///  - simulate_sweep(town, model, pose_at, period, SensorEffects, ...): a sweep with motion skew, per-point times,
+///    dropouts and porous vegetation.                                                                [lidar_sim.hpp]
 ///  - make_drive(DriveConfig): route with revisits, ground truth, drifting odometry with residuals;
-///    Drive::simulate(i, num_threads) ray-casts scan i.                                                  [drive.hpp]
+///    Drive::simulate(i, num_threads) ray-casts scan i with DriveConfig::effects (all on by default).   [drive.hpp]
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/sim/drive.hpp"
 #include "loopd/sim/lidar_sim.hpp"

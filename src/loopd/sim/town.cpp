@@ -66,6 +66,7 @@ class TownBuilder {
     const double crown_r = rng_.uniform(1.8, 3.2);
     t_.primitives.push_back(make_cylinder(x, y, base - 0.5, base + trunk_h, rng_.uniform(0.15, 0.3), refl(0.3, 0.5)));
     t_.primitives.push_back(make_sphere(Eigen::Vector3d(x, y, base + trunk_h + 0.7 * crown_r), crown_r, refl(0.35, 0.6)));
+    t_.primitives.back().vegetation = true;
   }
 
   /// A street light / sign pole.
@@ -278,6 +279,41 @@ class TownBuilder {
   Rng rng_;
 };
 
+/// Rows of bushes (spheres sunk into the ground) on the inner edge of a share of the sidewalks, from their own random
+/// stream: they come after every other primitive, so that the rest of the town is the same with or without them.
+void add_bushes(Town* town) {
+  const TownConfig& c = town->config;
+  Rng rng(detail::hash_combine(c.seed, 0xB05Eull));
+  const double hr = 0.5 * c.road_width;
+  auto bush = [&](double x, double y, double radius) {
+    Primitive p = make_sphere(Eigen::Vector3d(x, y, town->ground_height(x, y) + c.kerb_height + 0.4 * radius), radius,
+                              static_cast<float>(rng.uniform(0.3, 0.5)));
+    p.vegetation = p.bush = true;
+    town->primitives.push_back(p);
+  };
+  for (int bj = 0; bj < c.blocks_y; ++bj) {
+    for (int bi = 0; bi < c.blocks_x; ++bi) {
+      const double kx0 = town->street_x[static_cast<std::size_t>(bi)] + hr, kx1 = town->street_x[static_cast<std::size_t>(bi + 1)] - hr;
+      const double ky0 = town->street_y[static_cast<std::size_t>(bj)] + hr, ky1 = town->street_y[static_cast<std::size_t>(bj + 1)] - hr;
+      for (int side = 0; side < 4; ++side) {
+        if (!rng.chance(c.bush_fraction)) continue;
+        const bool along_x = side == 0 || side == 2;
+        const double kerb = side == 0 ? ky0 : side == 1 ? kx1 : side == 2 ? ky1 : kx0;
+        const double into = (side == 0 || side == 3) ? 1.0 : -1.0;  // from the kerb into the block
+        const double lo = (along_x ? kx0 : ky0) + 5.0, hi = (along_x ? kx1 : ky1) - 5.0;
+        // One stretch of 10-30 m of the side, bushes 1.2-2.5 m apart, touching the sidewalk's inner edge.
+        const double len = rng.uniform(10.0, 30.0);
+        const double u0 = rng.uniform(lo, std::max(lo, hi - len));
+        for (double u = u0; u < std::min(hi, u0 + len); u += rng.uniform(1.2, 2.5)) {
+          const double radius = rng.uniform(0.5, 0.9);
+          const double v = kerb + into * (c.sidewalk_width - radius);
+          bush(along_x ? u : v, along_x ? v : u, radius);
+        }
+      }
+    }
+  }
+}
+
 /// Street line positions: `n` lines, line `origin` at 0, spacing uniform in [lo, hi].
 std::vector<double> street_lines(Rng* rng, int n, int origin, double lo, double hi) {
   std::vector<double> v(static_cast<std::size_t>(n), 0.0);
@@ -298,6 +334,7 @@ std::optional<std::string> TownConfig::validate() const {
   if (park_fraction < 0 || lot_fraction < 0 || park_fraction + lot_fraction > 1) return std::string("bad block fractions");
   if (car_occupancy < 0 || car_occupancy > 1 || movable_fraction < 0 || movable_fraction > 1) return std::string("probabilities must be in [0, 1]");
   if (!(cell_size >= 0.5)) return std::string("cell_size must be >= 0.5 m");
+  if (!(bush_fraction >= 0 && bush_fraction <= 1)) return std::string("bush_fraction must be in [0, 1]");
   return std::nullopt;
 }
 
@@ -417,6 +454,7 @@ Town make_town(const TownConfig& config) {
                     town.street_x[static_cast<std::size_t>(bi + 1)] - hr, town.street_y[static_cast<std::size_t>(bj + 1)] - hr);
     }
   }
+  add_bushes(&town);
   town.build_index();
   return town;
 }

@@ -23,6 +23,7 @@ struct TownConfig {
   double lot_fraction = 0.10;     ///< share of blocks that are parking lots (low wall, cars, poles)
   double car_occupancy = 0.5;     ///< probability that a kerb-side parking slot holds a car
   double movable_fraction = 0.5;  ///< share of parked cars that move or vanish between visits
+  double bush_fraction = 0.35;    ///< share of block sides with bushes along the sidewalk (shown with vegetation on)
   double cell_size = 4.0;         ///< [m] edge of the 2D spatial-index cells
   std::optional<std::string> validate() const;
 };
@@ -45,6 +46,10 @@ struct Primitive {
   std::int32_t movable_id = -1;  ///< -1: static; else index of the movable object this primitive belongs to
   std::int32_t variant = 0;      ///< which state of the movable object this primitive shows
   bool windows = false;          ///< box facade with a window grid (glass: most returns lost) above its ground floor
+  /// Foliage (tree crowns, bushes; spheres): porous when the lidar simulates vegetation (SensorEffects::vegetation);
+  /// bushes (`bush`) are only there then, crowns are solid otherwise.
+  bool vegetation = false;
+  bool bush = false;
 };
 
 /// @brief A procedural scene: a sloped ground plane plus primitives indexed in a 2D uniform grid (walked by DDA).
@@ -85,7 +90,9 @@ struct Town {
 
 /// @brief The procedural town for `seed` (default config otherwise). Deterministic.
 /// @note Street grid with blocks of buildings (facade segments with varying set-backs = recesses, balconies),
-///       parks (boundary walls, trees), parking lots; poles and trees on sidewalks, parked cars in parking lanes.
+///       parks (boundary walls, trees), parking lots; poles and trees on sidewalks, parked cars in parking lanes;
+///       rows of bushes on the inner edge of some sidewalks (from their own random stream, after everything else, so
+///       that the rest of the town is the same with or without them).
 Town make_town(std::uint64_t seed);
 /// @brief The town for a full config.
 Town make_town(const TownConfig& config);
