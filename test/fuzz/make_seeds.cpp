@@ -1,5 +1,7 @@
 // Writes the seed corpora of the fuzz targets (test/fuzz/corpus/<name>/) with loopd's own writers and lcm-gen's
 // encoders: small valid inputs of each format. Usage: fuzz_make_seeds <corpus dir>
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -230,6 +232,47 @@ void messages() {
   w.close();
 }
 
+/// fuzz_pointcloud2's input: the layout (see fuzz_pointcloud2.cpp), then the data bytes.
+struct Cloud2Seed {
+  std::string bytes;
+  Cloud2Seed(std::uint32_t height, std::uint32_t width, std::uint32_t point_step, std::uint32_t row_step, bool big_endian) {
+    bytes = raw(height) + raw(width) + raw(point_step) + raw(row_step) + std::string(1, big_endian ? '\1' : '\0');
+  }
+  /// name: index into fuzz_pointcloud2's names (0 x, 1 y, 2 z, 3 intensity, 4 ring, 5 laser_id, 6 time).
+  void fields(const std::vector<std::array<std::uint32_t, 3>>& f) {  // {name, offset, datatype}, count 1
+    bytes += static_cast<char>(f.size());
+    for (const auto& x : f)
+      bytes += std::string(1, static_cast<char>(x[0])) + raw(x[1]) + std::string(1, static_cast<char>(x[2])) + raw(std::uint32_t{1});
+  }
+};
+
+template <typename T>
+std::string raw_be(T v) {
+  const std::string b = raw(v);
+  return std::string(b.rbegin(), b.rend());
+}
+
+void pointcloud2() {
+  const PointCloud c = small_cloud(6);
+  // The velodyne driver's layout: float32 x y z, pad, float32 intensity, uint16 ring, pad, float32 time; 28 bytes.
+  Cloud2Seed velodyne(1, 6, 28, 6 * 28, false);
+  velodyne.fields({{0, 0, 7}, {1, 4, 7}, {2, 8, 7}, {3, 16, 7}, {4, 20, 4}, {6, 24, 7}});
+  for (std::size_t i = 0; i < c.size(); ++i)
+    velodyne.bytes += raw(c.points[i].x()) + raw(c.points[i].y()) + raw(c.points[i].z()) + raw(0.f) + raw(c.intensity[i]) +
+                      raw(static_cast<std::uint16_t>(i)) + std::string(2, '\0') + raw(0.01f * static_cast<float>(i));
+  put("pointcloud2", "velodyne", velodyne.bytes);
+  // Big-endian float64 x y z and an int32 laser_id; 2 rows x 3 columns with a NaN cell and 4 bytes of row padding.
+  Cloud2Seed be(2, 3, 28, 3 * 28 + 4, true);
+  be.fields({{0, 0, 8}, {1, 8, 8}, {2, 16, 8}, {5, 24, 5}});
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const double x = i == 4 ? std::nan("") : static_cast<double>(c.points[i].x());
+    be.bytes += raw_be(x) + raw_be(static_cast<double>(c.points[i].y())) + raw_be(static_cast<double>(c.points[i].z())) +
+                raw_be(static_cast<std::int32_t>(i));
+    if (i % 3 == 2) be.bytes += std::string(4, '\0');
+  }
+  put("pointcloud2", "organised_big_endian", be.bytes);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -239,6 +282,7 @@ int main(int argc, char** argv) {
   }
   root = argv[1];
   clouds();
+  pointcloud2();
   text_files();
   configs(argv[2]);
   messages();
