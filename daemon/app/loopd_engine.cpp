@@ -11,6 +11,10 @@
 #include "log_level.hpp"
 
 namespace loopd {
+namespace {
+/// PoCL's kernel compiler: ~70 MB of resident code after the kernels are built, idle while loopd detects loops.
+const std::vector<std::string> kCompilerLibraries{"libLLVM", "libclang-cpp"};
+}  // namespace
 
 std::optional<std::string> EngineConfig::validate() const {
   if (auto e = association.validate()) return e;
@@ -35,6 +39,7 @@ LoopdEngine::LoopdEngine(const EngineConfig& config, EngineSink* sink)
   int n = config_.num_threads > 0 ? config_.num_threads : static_cast<int>(std::thread::hardware_concurrency());
   if (n < 1) n = 1;
   stats_.device = detector_.descriptor_device();
+  page_out_library_code(kCompilerLibraries);  // the M2DP kernels are built: PoCL's compiler is idle from here on
   for (int i = 0; i < n; ++i)
     workers_.emplace_back([this, i] {
       const std::string name = "loopd-worker" + std::to_string(i);  // what top -H and gdb show
@@ -268,7 +273,10 @@ void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shar
         [this](const KeyframeRecord& k, const Eigen::Isometry3d& T_map_sensor) { sink_->on_keyframe(k, T_map_sensor); });
     if (out.correction) sink_->on_correction(*out.correction);
     sink_->on_keyframe_decided(item.first.key);
-    if (out.correction && out.correction->method.find("graph") != std::string::npos) release_free_heap();  // after a solve
+    if (out.correction && out.correction->method.find("graph") != std::string::npos) {  // after a solve
+      release_free_heap();
+      page_out_library_code(kCompilerLibraries);  // PoCL compiles a kernel variant now and then
+    }
     {
       std::lock_guard<std::mutex> s(stats_mutex_);
       stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
