@@ -1,8 +1,12 @@
 # Debian packages with CPack's DEB generator (scripts/package builds and checks them; packaging/deb holds the sources).
 #   loopd      components runtime (programs, loopd-spy, loopd_types.jar, the example config) and system (below)
 #   loopd-dev  components dev (headers, static libraries, CMake package) and dev-doc
-# system and dev-doc are EXCLUDE_FROM_ALL: a plain `cmake --install` never writes /etc/loopd or /lib/systemd/system on a
-# developer's machine; only cpack installs them, into its staging directory (CPACK_SET_DESTDIR, prefix /usr).
+#   loopd-ros  components ros (bag2lcm: it links Debian's ROS 1 bag libraries) and ros-doc (its man page, copyright,
+#              changelog); made only where bag2lcm is built (tools/bag2lcm/CMakeLists.txt), so that installing the daemon
+#              never pulls ROS libraries
+# system, dev-doc and ros-doc are EXCLUDE_FROM_ALL: a plain `cmake --install` never writes /etc/loopd or
+# /lib/systemd/system on a developer's machine; only cpack installs them, into its staging directory (CPACK_SET_DESTDIR,
+# prefix /usr).
 set(loopd_deb_src ${CMAKE_SOURCE_DIR}/packaging/deb)
 set(loopd_deb_out ${CMAKE_BINARY_DIR}/package-files)
 set(LOOPD_PACKAGE_CONTACT "loopd maintainers <maintainers@users.noreply.h-seed-2365b61f.example>" CACHE STRING "Maintainer of the .deb")
@@ -24,8 +28,11 @@ if(LOOPD_BUILD_TESTS)
 endif()
 
 # Man pages from each program's --help (packaging/deb/help-to-man), built only for the package (target loopd_package_files).
+# loopd_man_pages go into loopd (component system), loopd_ros_man_pages into loopd-ros (ros-doc): each page goes where its
+# program goes (loopd_add_tool's COMPONENT).
 get_property(loopd_tool_targets GLOBAL PROPERTY LOOPD_TOOL_TARGETS)
 set(loopd_man_pages "")
+set(loopd_ros_man_pages "")
 foreach(program loopd ${loopd_tool_targets})
   set(page ${loopd_deb_out}/man/${program}.1.gz)
   add_custom_command(
@@ -34,7 +41,14 @@ foreach(program loopd ${loopd_tool_targets})
     COMMAND ${loopd_deb_src}/help-to-man $<TARGET_FILE:${program}> ${program} ${PROJECT_VERSION} ${page}
     DEPENDS ${program} ${loopd_deb_src}/help-to-man
     COMMENT "Man page ${program}.1 from ${program} --help")
-  list(APPEND loopd_man_pages ${page})
+  get_property(component GLOBAL PROPERTY LOOPD_TOOL_COMPONENT_${program})
+  if(component STREQUAL ros)
+    list(APPEND loopd_ros_man_pages ${page})
+  elseif(NOT component OR component STREQUAL runtime)
+    list(APPEND loopd_man_pages ${page})
+  else()
+    message(FATAL_ERROR "${program}: install component ${component} has no package (cmake/LoopdPackage.cmake)")
+  endif()
 endforeach()
 # loopd-spy finds loopd_types.jar next to itself (../share/java) before it parses --help: run a copy laid out that way.
 if(TARGET loopd_types_jar)
@@ -59,7 +73,7 @@ add_custom_command(
   COMMENT "changelog.gz")
 
 # Everything the packages hold, built: scripts/package builds this target, then runs cpack.
-add_custom_target(loopd_package_files DEPENDS ${loopd_man_pages} ${loopd_deb_out}/changelog.gz)
+add_custom_target(loopd_package_files DEPENDS ${loopd_man_pages} ${loopd_ros_man_pages} ${loopd_deb_out}/changelog.gz)
 add_dependencies(loopd_package_files loopd loopd_package_config ${loopd_tool_targets} ${loopd_export_targets})
 if(TARGET loopd_types_jar)
   add_dependencies(loopd_package_files loopd_types_jar)
@@ -77,6 +91,18 @@ install(FILES ${loopd_deb_src}/copyright ${loopd_deb_out}/changelog.gz DESTINATI
         COMPONENT dev-doc EXCLUDE_FROM_ALL)
 install(FILES ${loopd_deb_src}/lintian-overrides DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/lintian/overrides RENAME loopd
         COMPONENT system EXCLUDE_FROM_ALL)
+if(loopd_ros_man_pages)
+  install(FILES ${loopd_ros_man_pages} DESTINATION ${CMAKE_INSTALL_MANDIR}/man1 COMPONENT ros-doc EXCLUDE_FROM_ALL)
+  install(FILES ${loopd_deb_src}/copyright ${loopd_deb_out}/changelog.gz DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/loopd-ros
+          COMPONENT ros-doc EXCLUDE_FROM_ALL)
+endif()
+# The packages this configuration makes, one a line: scripts/package expects exactly these from cpack.
+set(loopd_packages loopd loopd-dev)
+if(loopd_ros_man_pages)
+  list(APPEND loopd_packages loopd-ros)
+endif()
+list(JOIN loopd_packages "\n" loopd_packages_text)
+file(WRITE ${loopd_deb_out}/packages "${loopd_packages_text}\n")
 
 # CPack: one package per group, named as the group. Descriptions: CPack indents the lines after the summary.
 set(CPACK_GENERATOR DEB)
@@ -92,6 +118,11 @@ set(CPACK_COMPONENT_RUNTIME_GROUP loopd)
 set(CPACK_COMPONENT_SYSTEM_GROUP loopd)
 set(CPACK_COMPONENT_DEV_GROUP loopd-dev)
 set(CPACK_COMPONENT_DEV-DOC_GROUP loopd-dev)
+if(loopd_ros_man_pages)
+  list(APPEND CPACK_COMPONENTS_ALL ros ros-doc)
+  set(CPACK_COMPONENT_ROS_GROUP loopd-ros)
+  set(CPACK_COMPONENT_ROS-DOC_GROUP loopd-ros)
+endif()
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_PRIORITY optional)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)  # Depends from dpkg-shlibdeps on the binaries as linked
@@ -115,7 +146,8 @@ restart resumes.
 This package holds the daemon with its systemd unit (loopd.service, user
 loopd, configuration /etc/loopd/loopd.yaml, map /var/lib/loopd/map.db), the
 command-line tools (simulation, evaluation, map inspection, benchmarks),
-loopd-spy and the Java message types for lcm-spy.")
+loopd-spy and the Java message types for lcm-spy. bag2lcm, which links ROS
+libraries, is in loopd-ros.")
 
 set(CPACK_DEBIAN_LOOPD-DEV_PACKAGE_NAME loopd-dev)
 set(CPACK_DEBIAN_LOOPD-DEV_PACKAGE_SECTION libdevel)
@@ -126,4 +158,21 @@ The static libraries of loopd's pipeline (descriptors, segmentation,
 registration, verification, loop correction, map store), their headers,
 the C++ headers of loopd's LCM message types and the CMake package:
 find_package(loopd) and link loopd::loopd_core.")
+
+# loopd-ros: bag2lcm alone; Depends only what dpkg-shlibdeps finds on it (the ROS 1 bag libraries, liblcm1, the C++
+# runtime). Nothing of the loopd package: loopd's libraries are linked in statically and bag2lcm reads no file of it. Not
+# even Recommends: apt would install the daemon, which enables and starts a service, on a machine that only converts
+# bags. Suggests, as its logs are for loopd --replay, loopd-eval and loopd-compare.
+set(CPACK_DEBIAN_LOOPD-ROS_PACKAGE_NAME loopd-ros)
+set(CPACK_DEBIAN_LOOPD-ROS_PACKAGE_SECTION science)
+set(CPACK_DEBIAN_LOOPD-ROS_PACKAGE_SUGGESTS "loopd")
+set(CPACK_DEBIAN_LOOPD-ROS_DESCRIPTION "ROS 1 bag converter for the lidar loop-closure daemon loopd
+bag2lcm turns a ROS 1 bag (rosbag record) into an LCM drive log that loopd
+--replay, loopd-eval and loopd-compare read: sensor_msgs/PointCloud2 scans,
+odometry from nav_msgs/Odometry or from /tf, optional ground truth. It reads
+the bag with Debian's ROS 1 libraries and needs no ROS installation and no
+roscore.
+.
+It is packaged apart from loopd so that the daemon's package does not
+depend on ROS libraries.")
 include(CPack)
