@@ -132,6 +132,12 @@ TEST_CASE("metrics library: hand-built loops give the hand-counted detection and
   CHECK(rep.closure.recall_correct == Approx(0.01));
   CHECK(rep.closure.stretches == 1);
   CHECK(rep.closure.stretches_closed == 1);
+  // Loop transform error of the 4 accepted loops: 0, 0, 2 and 81.0015 m (identity for a 180 deg, 81 m transform).
+  CHECK(rep.loop_translation_error.count == 4);
+  CHECK(rep.loop_translation_error.median == Approx(1.0));
+  CHECK(rep.loop_translation_error.p95 == Approx(std::hypot(81.0, 0.5)));
+  CHECK(rep.loop_rotation_error_deg.median == Approx(0.0).margin(1e-9));
+  CHECK(rep.loop_rotation_error_deg.p95 == Approx(180.0));
   // Pose error: the corrected trajectory is ground truth; odometry drifts.
   CHECK(rep.error_after.mean < 1e-9);
   CHECK(rep.ate_after < 1e-9);
@@ -244,6 +250,9 @@ TEST_CASE("loopd-eval binary: same figures from LCM logs, JSON as the last line,
   CHECK(j["closure_precision"].get<double>() == Approx(0.5));
   CHECK(j["closure_recall"].get<double>() == Approx(0.03));
   CHECK(j["stretches_closed"].get<int>() == 1);
+  CHECK(j["loop_translation_error_median"].get<double>() == Approx(1.0));
+  CHECK(j["loop_translation_error_p95"].get<double>() == Approx(std::hypot(81.0, 0.5)));
+  CHECK(j["loop_rotation_error_p95_deg"].get<double>() == Approx(180.0));
   CHECK(j["trajectory_revision"].get<int>() == 1);
   CHECK(j["mean_error_after"].get<double>() < 1e-6);  // positions go through LCM doubles: exact to rounding
   CHECK(j["median_error_before"].get<double>() > 1.0);

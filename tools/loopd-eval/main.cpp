@@ -140,6 +140,11 @@ int main(int argc, char** argv) {
   clo.add({"recall (correct loops only)", fmt(c.recall_correct)});
   clo.add({"revisited stretches closed",
            std::to_string(c.stretches_closed) + " / " + std::to_string(c.stretches) + " (" + fmt(100.0 * c.stretches_closed_share, 1) + " %)"});
+  const ErrorStats& lt = rep.loop_translation_error;
+  const ErrorStats& lr = rep.loop_rotation_error_deg;
+  clo.add({"loop transform error vs gt, median", fmt(lt.median, 4) + " m / " + fmt(lr.median, 3) + " deg"});
+  clo.add({"loop transform error vs gt, p95 / max",
+           fmt(lt.p95, 4) + " m / " + fmt(lr.p95, 3) + " deg, " + fmt(lt.max, 3) + " m / " + fmt(lr.max, 2) + " deg"});
   std::cout << clo.str() << "\n";
   Table err({"pose error [m]", "before (odometry)", "after (corrected)"});
   err.add({"mean, closest gt pose", fmt(rep.error_before.mean), fmt(rep.error_after.mean)});
@@ -184,6 +189,12 @@ int main(int argc, char** argv) {
     j["mean_error_after"] = rep.error_after.mean;
     j["median_error_before"] = rep.error_before.median;
     j["median_error_after"] = rep.error_after.median;
+    j["loop_translation_error_median"] = rep.loop_translation_error.median;
+    j["loop_translation_error_p95"] = rep.loop_translation_error.p95;
+    j["loop_translation_error_max"] = rep.loop_translation_error.max;
+    j["loop_rotation_error_median_deg"] = rep.loop_rotation_error_deg.median;
+    j["loop_rotation_error_p95_deg"] = rep.loop_rotation_error_deg.p95;
+    j["loop_rotation_error_max_deg"] = rep.loop_rotation_error_deg.max;
     j["ate_before"] = rep.ate_before;
     j["ate_after"] = rep.ate_after;
     j["has_corrected"] = rep.has_corrected;

@@ -199,6 +199,18 @@ void fill_pose_errors(EvalReport& rep) {
   rep.ate_after = ate_rmse(after_p, gt_p);
 }
 
+/// @brief How far the accepted loops' T_match_query lie from ground truth (the closure tolerance's two quantities).
+void fill_loop_errors(const std::vector<LoopRecord>& loops, EvalReport& rep) {
+  std::vector<double> translation, rotation;
+  for (const LoopCheck& c : rep.checks)
+    if (c.has_ground_truth && loops[c.loop].status == LoopStatus::kAccepted) {
+      translation.push_back(c.translation_error);
+      rotation.push_back(c.rotation_error_deg);
+    }
+  rep.loop_translation_error = error_stats(translation);
+  rep.loop_rotation_error_deg = error_stats(rotation);
+}
+
 /// @brief Per-stage timings over the loop events.
 void fill_timings(const std::vector<LoopRecord>& loops, EvalReport& rep) {
   rep.ms_descriptor = timing_stats(loops, &LoopRecord::ms_descriptor);
@@ -281,6 +293,7 @@ EvalReport evaluate(const EvalInput& in, const EvalConfig& config) {
   fill_detection_metrics(tally, rep.loop_ground_truth, rep.detection);
   fill_closure_metrics(tally, rep.loop_ground_truth, rep.closure);
   fill_pose_errors(rep);
+  fill_loop_errors(in.loops, rep);
   fill_timings(in.loops, rep);
   rep.ok = true;
   return rep;

@@ -118,6 +118,8 @@ struct EvalReport {
   DetectionMetrics detection;
   ClosureMetrics closure;
   ErrorStats error_before, error_after;  ///< closest-pose error (Vlaminck 2019, Table 4) [m]
+  ErrorStats loop_translation_error;     ///< [m] T_match_query of the accepted loops (with ground truth) against ground truth
+  ErrorStats loop_rotation_error_deg;    ///< [deg] the same, rotation
   double ate_before = 0, ate_after = 0;  ///< ATE RMSE after SE(3) Umeyama alignment [m]
   bool has_corrected = false;
   TimingStats ms_descriptor, ms_fourpcs, ms_gicp, ms_hungarian, ms_total;
