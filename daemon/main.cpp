@@ -53,6 +53,11 @@ void print_summary(const loopd::RunSummary& s, bool replay) {
                static_cast<long long>(e.invalid_scans), static_cast<long long>(e.dropped_no_pose), static_cast<long long>(e.shed),
                static_cast<long long>(s.dropped_input), static_cast<long long>(e.scans_lost_estimate), static_cast<long long>(e.clock_jumps),
                static_cast<long long>(e.odometry_resets), static_cast<long long>(e.sensor_changes));
+  if (e.keyframes_deskewed + e.deskew_skipped > 0)
+    std::fprintf(stderr,
+                 "loopd: deskew: %lld keyframes deskewed (largest correction %.3f m), %lld with times not deskewed (poses not covering the sweep, or "
+                 "a sweep too long)\n",
+                 static_cast<long long>(e.keyframes_deskewed), e.deskew_max_correction, static_cast<long long>(e.deskew_skipped));
 }
 }  // namespace
 

@@ -251,6 +251,11 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("association.hold_time", e.association.hold_time);
   b.field("association.max_pending_scans", e.association.max_pending_scans);
   b.field("association.max_poses", e.association.max_poses);
+  b.field("deskew.enabled", e.deskew.enabled);
+  b.field("deskew.max_sweep", e.deskew.max_sweep);
+  b.field("deskew.max_extrapolation", e.deskew.max_extrapolation);
+  b.field("deskew.max_pose_gap", e.deskew.max_pose_gap);
+  b.field("deskew.time_bins", e.deskew.time_bins);
 
   LoopDetectorConfig& d = e.detector;
   b.field("sensor", d.sensor);

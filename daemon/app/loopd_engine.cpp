@@ -18,6 +18,7 @@ const std::vector<std::string> kCompilerLibraries{"libLLVM", "libclang-cpp"};
 
 std::optional<std::string> EngineConfig::validate() const {
   if (auto e = association.validate()) return e;
+  if (auto e = deskew.validate()) return e;
   if (auto e = detector.validate()) return e;
   if (num_threads < 0) return "num_threads must be >= 0 (0 = hardware threads)";
   if (queue_capacity < 1) return "queue_capacity must be >= 1";
@@ -30,7 +31,7 @@ std::optional<std::string> EngineConfig::validate() const {
 LoopdEngine::LoopdEngine(const EngineConfig& config, EngineSink* sink)
     : config_(config),
       sink_(sink),
-      associator_(config.association),
+      associator_(config.association, config.deskew.enabled),
       scan_clock_(ClockWatch::Config{config.clock_jump, 2}),
       pose_clock_(ClockWatch::Config{config.clock_jump, 2}),
       odometry_filter_(OdometryResetFilter::Config{config.max_odometry_speed, 360.0, 2.0}),
@@ -146,6 +147,7 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     job.input.residual = residual_since_keyframe_;
     residual_since_keyframe_ = 0.0;
     job.cloud = std::move(s.cloud);
+    job.sweep_poses = std::move(s.sweep_poses);
     submit(std::move(job));
   }
 }
@@ -231,6 +233,7 @@ void LoopdEngine::worker_loop() {
       ++busy_;
     }
     space_cv_.notify_one();
+    deskew_scan(job);
     auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud));
     job.cloud = PointCloud();
     worker_steps_.fetch_add(1);
@@ -243,6 +246,20 @@ void LoopdEngine::worker_loop() {
       std::lock_guard<std::mutex> lock(queue_mutex_);
       --busy_;
     }
+  }
+}
+
+void LoopdEngine::deskew_scan(Job& job) {
+  if (!config_.deskew.enabled || !job.cloud.has_time()) return;  // scans without times stay as they came, bit for bit
+  const DeskewResult r = deskew(config_.deskew, job.sweep_poses, job.input.utime, &job.cloud);
+  job.sweep_poses = {};
+  if (r.skipped == DeskewSkip::kNoSpan) return;  // an instantaneous scan: nothing to correct
+  std::lock_guard<std::mutex> s(stats_mutex_);
+  if (r.applied()) {
+    ++stats_.keyframes_deskewed;
+    stats_.deskew_max_correction = std::max(stats_.deskew_max_correction, r.max_correction);
+  } else {
+    ++stats_.deskew_skipped;
   }
 }
 

@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include "loopd/core/deskew.hpp"
 #include "loopd/pipeline/keyframe_selector.hpp"
 #include "loopd/pipeline/loop_detector.hpp"
 #include "map_resume.hpp"
@@ -26,6 +27,7 @@ namespace loopd {
 /// @brief Engine settings beyond the detector's: association, threads, queues, input limits.
 struct EngineConfig {
   AssociationConfig association;
+  DeskewConfig deskew;  ///< motion compensation of keyframe scans that carry per-point times, before their features
   LoopDetectorConfig detector;
   int num_threads = 0;                         ///< feature/verification workers; 0 = hardware threads
   int queue_capacity = 16;                     ///< keyframes waiting for a worker (see ready_capacity() for the sequential stage)
@@ -68,6 +70,9 @@ struct EngineStats {
   std::int64_t clock_jumps = 0;           ///< data clock jumps followed (scan or pose channel, whichever saw more)
   std::int64_t odometry_resets = 0;       ///< odometry resets bridged (OdometryResetFilter)
   std::int64_t sensor_changes = 0;        ///< sensor layout changes (SensorLayoutWatch)
+  std::int64_t keyframes_deskewed = 0;    ///< keyframe scans motion-compensated from their per-point times
+  std::int64_t deskew_skipped = 0;        ///< keyframe scans with times left as they were: poses do not cover the sweep, or too long a sweep
+  double deskew_max_correction = 0.0;     ///< [m] largest distance deskew moved a point
   std::string device;
 };
 
@@ -117,6 +122,7 @@ class LoopdEngine {
     std::int64_t sequence = 0;  ///< order of submission: the sequential stage takes keyframes in this order
     KeyframeInput input;
     PointCloud cloud;
+    std::vector<StampedPose> sweep_poses;  ///< T_odom_sensor around the sweep (deskew on, scan with times)
   };
   void handle_associated(std::vector<AssociatedScan> scans);
   void update_input_health();
@@ -129,6 +135,8 @@ class LoopdEngine {
   /// finished keyframes wait for the sequential stage.
   bool full() const { return static_cast<int>(queue_.size()) >= config_.queue_capacity || ready_backlog_.load() >= ready_capacity(); }
   void worker_loop();
+  /// Deskews the job's scan in place (deskew on, scan with per-point times) and counts what it did.
+  void deskew_scan(Job& job);
   void complete(std::int64_t sequence, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features);
 
   EngineConfig config_;

@@ -108,6 +108,8 @@ status_t make_status(std::int64_t utime, double uptime_s, const EngineStats& s, 
   m.map_cached_bytes = map.cached_bytes;
   m.map_write_failures = map.write_failures;
   m.map_error = map.last_error;
+  m.keyframes_deskewed = s.keyframes_deskewed;
+  m.deskew_skipped = s.deskew_skipped;
   return m;
 }
 

@@ -1,6 +1,9 @@
 #include "scan_pose_associator.hpp"
 
 #include <algorithm>
+#include <cmath>
+
+#include "loopd/core/deskew.hpp"
 
 namespace loopd {
 
@@ -30,7 +33,13 @@ bool ScanPoseAssociator::add_scan(std::int64_t utime, PointCloud cloud, double w
     return false;
   }
   last_scan_utime_ = utime;
-  scans_.push_back({utime, std::move(cloud), wall_time_s});
+  std::int64_t sweep_begin = utime, sweep_end = utime;
+  if (sweep_poses_ && cloud.has_time()) {
+    const auto [t0, t1] = time_span(cloud);
+    sweep_begin = utime + static_cast<std::int64_t>(std::floor(t0 * 1e6));
+    sweep_end = utime + static_cast<std::int64_t>(std::ceil(t1 * 1e6));
+  }
+  scans_.push_back({utime, std::move(cloud), wall_time_s, sweep_begin, sweep_end});
   while (static_cast<int>(scans_.size()) > config_.max_pending_scans) {
     scans_.pop_front();
     ++dropped_no_pose_;
@@ -74,10 +83,34 @@ double ScanPoseAssociator::residual_between(std::int64_t from, std::int64_t to) 
   return sum;
 }
 
+std::vector<StampedPose> ScanPoseAssociator::poses_around(std::int64_t from, std::int64_t to) const {
+  const auto before = [](const StampedPose& p, std::int64_t t) { return p.utime < t; };
+  const auto after = [](std::int64_t t, const StampedPose& p) { return t < p.utime; };
+  auto lo = std::lower_bound(poses_.begin(), poses_.end(), from, before);
+  auto hi = std::upper_bound(poses_.begin(), poses_.end(), to, after);
+  // Two before and one after: the bracketing poses and, where the sweep reaches beyond the poses, a pair for the
+  // velocity to extrapolate with.
+  lo -= std::min<std::ptrdiff_t>(2, lo - poses_.begin());
+  hi += std::min<std::ptrdiff_t>(1, poses_.end() - hi);
+  return {lo, hi};
+}
+
+bool ScanPoseAssociator::sweep_ready(const Pending& p, double wall_time_s, bool use_wall_clock) const {
+  if (!sweep_poses_ || p.sweep_end <= p.utime) return true;  // a pose at utime is all a resolvable scan needs
+  const std::int64_t newest = poses_.empty() ? INT64_MIN : poses_.back().utime;
+  if (newest >= p.sweep_end) return true;
+  // The data clock runs on with scans too (odometry may have stopped); deskew extrapolates or skips what is missing.
+  const std::int64_t data_now = std::max(newest, last_scan_utime_.value_or(p.utime));
+  const bool data_timeout = data_now - p.utime > static_cast<std::int64_t>(config_.hold_time * 1e6);
+  const bool wall_timeout = use_wall_clock && wall_time_s - p.arrival_wall_s > config_.hold_time;
+  return data_timeout || wall_timeout;
+}
+
 std::optional<AssociatedScan> ScanPoseAssociator::resolve(Pending& p) {
   auto pose = pose_at(p.utime);
   if (!pose) return std::nullopt;
   AssociatedScan s;
+  if (sweep_poses_ && p.cloud.has_time()) s.sweep_poses = poses_around(std::min(p.sweep_begin, p.utime), std::max(p.sweep_end, p.utime));
   s.utime = p.utime;
   s.cloud = std::move(p.cloud);
   s.pose = *pose;
@@ -92,6 +125,7 @@ std::vector<AssociatedScan> ScanPoseAssociator::poll(double wall_time_s, bool us
   const auto tol = static_cast<std::int64_t>(config_.tolerance * 1e6);
   while (!scans_.empty()) {
     Pending& p = scans_.front();
+    if (!sweep_ready(p, wall_time_s, use_wall_clock)) break;  // keep order: later scans wait behind this one
     if (auto s = resolve(p)) {
       out.push_back(std::move(*s));
       scans_.pop_front();

@@ -25,14 +25,20 @@ struct AssociatedScan {
   PointCloud cloud;
   StampedPose pose;           ///< T_odom_sensor at utime (exact or interpolated)
   double residual_sum = 0.0;  ///< sum of pose residuals since the previous associated scan [m]
+  /// With sweep poses on and per-point times in the cloud: the poses around the sweep (the ones within it, two before
+  /// and one after it where the associator holds them), for deskew; empty otherwise.
+  std::vector<StampedPose> sweep_poses;
 };
 
 /// @brief Pairs scans with poses by utime: an exact match, or slerp between the bracketing poses when both lie
 ///        within the tolerance. Scans wait at most hold_time for their poses, then are dropped and counted.
+///        With sweep poses on, a scan with per-point times also waits (at most hold_time, in data time or live on the
+///        wall clock) for a pose at or after its last point time, and leaves with the poses around its sweep.
 ///        Not thread-safe (used by the one ingest thread).
 class ScanPoseAssociator {
  public:
-  explicit ScanPoseAssociator(const AssociationConfig& config) : config_(config) {}
+  /// @param sweep_poses scans with per-point times wait for their sweep's poses and leave with them (for deskew).
+  explicit ScanPoseAssociator(const AssociationConfig& config, bool sweep_poses = false) : config_(config), sweep_poses_(sweep_poses) {}
 
   /// @brief Adds a pose; returns false (and counts it) for a duplicate or out-of-order utime.
   bool add_pose(const StampedPose& pose);
@@ -61,11 +67,16 @@ class ScanPoseAssociator {
     std::int64_t utime;
     PointCloud cloud;
     double arrival_wall_s;
+    std::int64_t sweep_begin, sweep_end;  ///< [us] first and last point time (utime when the scan has no times)
   };
   std::optional<AssociatedScan> resolve(Pending& p);
+  /// Whether `p` may leave: its sweep's last pose is there, or it has waited hold_time (always without sweep poses).
+  bool sweep_ready(const Pending& p, double wall_time_s, bool use_wall_clock) const;
+  std::vector<StampedPose> poses_around(std::int64_t from, std::int64_t to) const;
   double residual_between(std::int64_t from, std::int64_t to) const;
 
   AssociationConfig config_;
+  bool sweep_poses_ = false;
   std::deque<StampedPose> poses_;
   std::deque<Pending> scans_;
   std::optional<std::int64_t> last_scan_utime_;

@@ -130,3 +130,86 @@ TEST_CASE("tolerance and hold_time are bounded so that they fit int64 microsecon
   REQUIRE(out.size() == 1);
   CHECK(out[0].pose.T_world_sensor.translation().x() == Approx(5.0));
 }
+
+namespace {
+/// A cloud whose per-point times run from `from` to `to` [s] (relative to the scan's utime).
+PointCloud timed_cloud(float from, float to) {
+  PointCloud c = small_cloud();
+  c.time = {from, to};
+  return c;
+}
+}  // namespace
+
+TEST_CASE("with sweep poses, a scan stamped at its sweep's start waits for a pose after its last point") {
+  ScanPoseAssociator a(AssociationConfig{}, true);
+  for (std::int64_t u = 0; u <= 1'000'000; u += 100'000) a.add_pose(pose_at(u, 0.1 * static_cast<double>(u / 100'000), 0.0));
+  a.add_scan(1'000'000, timed_cloud(0.0f, 0.099f), 0.0);  // 1.000 .. 1.099 s: the pose at 1.1 s closes the sweep
+  CHECK(a.poll(0.0, false).empty());
+  a.add_pose(pose_at(1'100'000, 1.1, 0.0));
+  auto out = a.poll(0.0, false);
+  REQUIRE(out.size() == 1);
+  // Two poses before the sweep (0.8, 0.9 s), the one in it (1.0 s) and the one closing it (1.1 s; none after it yet).
+  REQUIRE(out[0].sweep_poses.size() == 4);
+  CHECK(out[0].sweep_poses.front().utime == 800'000);
+  CHECK(out[0].sweep_poses.back().utime == 1'100'000);
+}
+
+TEST_CASE("with sweep poses, a scan stamped at its sweep's end leaves with its own pose and those before it") {
+  ScanPoseAssociator a(AssociationConfig{}, true);
+  for (std::int64_t u = 0; u <= 1'000'000; u += 100'000) a.add_pose(pose_at(u, 0.0, 0.0));
+  a.add_scan(1'000'000, timed_cloud(-0.1f, 0.0f), 0.0);
+  auto out = a.poll(0.0, false);
+  REQUIRE(out.size() == 1);  // no extra wait: its last point is at its stamp
+  REQUIRE(out[0].sweep_poses.size() == 4);
+  CHECK(out[0].sweep_poses.front().utime == 700'000);  // two before the sweep's start at 0.9 s
+  CHECK(out[0].sweep_poses.back().utime == 1'000'000);
+}
+
+TEST_CASE("with sweep poses, a scan waits at most hold_time for the rest of its sweep") {
+  AssociationConfig cfg;
+  cfg.hold_time = 0.3;
+  SECTION("data time: later scans arrive while the odometry has stopped") {
+    ScanPoseAssociator a(cfg, true);
+    a.add_pose(pose_at(900'000, 0.0, 0.0));
+    a.add_pose(pose_at(1'000'000, 0.1, 0.0));
+    a.add_scan(1'000'000, timed_cloud(0.0f, 0.1f), 0.0);
+    CHECK(a.poll(0.0, false).empty());
+    a.add_scan(1'200'000, timed_cloud(0.0f, 0.1f), 0.0);
+    CHECK(a.poll(0.0, false).empty());
+    a.add_scan(1'400'000, timed_cloud(0.0f, 0.1f), 0.0);  // 0.4 s of data after the first scan
+    auto out = a.poll(0.0, false);
+    REQUIRE(out.size() == 1);  // it leaves with what there is (deskew extrapolates or skips); the others have no pose
+    CHECK(out[0].utime == 1'000'000);
+    CHECK(out[0].sweep_poses.size() == 2);
+  }
+  SECTION("live: the wall clock") {
+    ScanPoseAssociator a(cfg, true);
+    a.add_pose(pose_at(1'000'000, 0.1, 0.0));
+    a.add_scan(1'000'000, timed_cloud(0.0f, 0.1f), 10.0);
+    CHECK(a.poll(10.2, true).empty());
+    CHECK(a.poll(10.4, true).size() == 1);
+  }
+  SECTION("at the end of input") {
+    ScanPoseAssociator a(cfg, true);
+    a.add_pose(pose_at(1'000'000, 0.1, 0.0));
+    a.add_scan(1'000'000, timed_cloud(0.0f, 0.1f), 0.0);
+    CHECK(a.flush().size() == 1);
+  }
+}
+
+TEST_CASE("without sweep poses, or without times, scans resolve as before and carry no sweep poses") {
+  ScanPoseAssociator off(AssociationConfig{});
+  ScanPoseAssociator on(AssociationConfig{}, true);
+  for (auto* a : {&off, &on}) {
+    a->add_pose(pose_at(1'000'000, 0.0, 0.0));
+    a->add_pose(pose_at(1'100'000, 1.0, 0.0));
+  }
+  off.add_scan(1'050'000, timed_cloud(0.0f, 0.1f), 0.0);  // would wait for 1.15 s with sweep poses
+  on.add_scan(1'050'000, small_cloud(), 0.0);
+  for (auto* a : {&off, &on}) {
+    auto out = a->poll(0.0, false);
+    REQUIRE(out.size() == 1);
+    CHECK(out[0].sweep_poses.empty());
+    CHECK(out[0].pose.T_world_sensor.translation().x() == Approx(0.5));
+  }
+}

@@ -105,6 +105,7 @@ status_t sample_status() {
   }
   s.device = "cpu";
   s.scans_lost_estimate = 3;
+  s.deskew_skipped = 2;
   return s;
 }
 
@@ -168,6 +169,7 @@ TEST_CASE("every message type decodes through decode_bounded exactly as LCM enco
   REQUIRE(decode_bounded(bytes.data(), bytes.size(), DecodeLimits{}, &status_out).ok);
   CHECK(status_out.channels[1].channel == "ODOMETRY_POSE");
   CHECK(status_out.scans_lost_estimate == 3);
+  CHECK(status_out.deskew_skipped == 2);
 
   trajectory_t traj_out;
   bytes = encode(sample_trajectory(3));

@@ -132,11 +132,15 @@ TEST_CASE("loop_event_t, trajectory_t and status_t round-trip") {
   EngineStats s;
   s.keyframes = 12;
   s.device = "cpu";
+  s.keyframes_deskewed = 11;
+  s.deskew_skipped = 1;
   const status_t st = round_trip(make_status(1, 2.0, s, {{"LIDAR_SCAN", 10, 9, 1, 0}}, 1024));
   REQUIRE(st.num_channels == 1);
   CHECK(st.channels[0].malformed == 1);
   CHECK(st.keyframes == 12);
   CHECK(st.device == "cpu");
+  CHECK(st.keyframes_deskewed == 11);
+  CHECK(st.deskew_skipped == 1);
 
   MapStatus map;
   map.path = "/var/lib/loopd/map.db";
