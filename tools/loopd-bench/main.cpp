@@ -10,6 +10,7 @@ int run_bench_verify(int argc, char** argv);
 int run_bench_correct(int argc, char** argv);
 int run_bench_pipeline(int argc, char** argv);
 int run_bench_soak(int argc, char** argv);
+int run_bench_deskew(int argc, char** argv);
 
 namespace {
 struct Subcommand {
@@ -25,6 +26,7 @@ constexpr Subcommand kSubcommands[] = {
     {"correct", run_bench_correct, "loop correction: ms per method"},
     {"pipeline", run_bench_pipeline, "whole pipeline on a simulated drive: throughput, latency, memory"},
     {"soak", run_bench_soak, "loopd live for N minutes on a looping drive: RSS, threads, fds, latency"},
+    {"deskew", run_bench_deskew, "deskew of the sharpest-turning simulated scan: ms and error per variant"},
 };
 void usage() {
   std::cout << "usage: loopd-bench <subcommand> [options] [--json]\n\nsubcommands:\n";
