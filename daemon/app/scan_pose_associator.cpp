@@ -96,9 +96,13 @@ std::vector<StampedPose> ScanPoseAssociator::poses_around(std::int64_t from, std
 }
 
 bool ScanPoseAssociator::sweep_ready(const Pending& p, double wall_time_s, bool use_wall_clock) const {
-  if (!sweep_poses_ || p.sweep_end <= p.utime) return true;  // a pose at utime is all a resolvable scan needs
+  if (!sweep_poses_) return true;
+  // A sweep that reaches back before the oldest pose (the drive's first scan, stamped at the sweep's end) is deskewed
+  // by extrapolating backwards at the velocity of the first pose pair: it waits for a second pose.
+  const bool needs_velocity = p.sweep_begin < p.utime && poses_.size() == 1 && poses_.front().utime > p.sweep_begin;
+  if (p.sweep_end <= p.utime && !needs_velocity) return true;  // a pose at utime is all a resolvable scan needs
   const std::int64_t newest = poses_.empty() ? INT64_MIN : poses_.back().utime;
-  if (newest >= p.sweep_end) return true;
+  if (newest >= p.sweep_end && !needs_velocity) return true;
   // The data clock runs on with scans too (odometry may have stopped); deskew extrapolates or skips what is missing.
   const std::int64_t data_now = std::max(newest, last_scan_utime_.value_or(p.utime));
   const bool data_timeout = data_now - p.utime > static_cast<std::int64_t>(config_.hold_time * 1e6);

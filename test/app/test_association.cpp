@@ -1,6 +1,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
+#include "loopd/core/deskew.hpp"
 #include "scan_pose_associator.hpp"
 
 using namespace loopd;
@@ -163,6 +164,27 @@ TEST_CASE("with sweep poses, a scan stamped at its sweep's end leaves with its o
   REQUIRE(out[0].sweep_poses.size() == 4);
   CHECK(out[0].sweep_poses.front().utime == 700'000);  // two before the sweep's start at 0.9 s
   CHECK(out[0].sweep_poses.back().utime == 1'000'000);
+}
+
+TEST_CASE("with sweep poses, the first scan, whose sweep begins before the first pose, waits for a second pose") {
+  // A drive's first scan stamped at its sweep's end: its points lie before the first pose, so deskew extrapolates
+  // backwards at the first pose pair's velocity. Before this wait it left with one pose and was never deskewed: on
+  // the skewed town drive (HDL-32E, seed 3) all 3 wrong loops of 536 closed on that keyframe.
+  ScanPoseAssociator a(AssociationConfig{}, true);
+  a.add_pose(pose_at(1'000'000, 0.0, 0.0));
+  a.add_scan(1'000'000, timed_cloud(-0.1f, 0.0f), 0.0);
+  CHECK(a.poll(0.0, false).empty());
+  a.add_pose(pose_at(1'100'000, 1.0, 0.0));
+  auto out = a.poll(0.0, false);
+  REQUIRE(out.size() == 1);
+  CHECK(out[0].pose.T_world_sensor.translation().x() == Approx(0.0));
+  REQUIRE(out[0].sweep_poses.size() == 2);
+  CHECK(out[0].sweep_poses.back().utime == 1'100'000);
+  // With the pair, the sweep 0.9 .. 1.0 s is covered by extrapolation (0.1 s at 10 m/s, within max_extrapolation).
+  PointCloud cloud = timed_cloud(-0.1f, 0.0f);
+  const DeskewResult r = deskew(DeskewConfig{}, out[0].sweep_poses, 1'000'000, &cloud);
+  CHECK(r.applied());
+  CHECK(r.extrapolated == Approx(0.1).margin(1e-6));
 }
 
 TEST_CASE("with sweep poses, a scan waits at most hold_time for the rest of its sweep") {
