@@ -254,21 +254,30 @@ template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimit
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, keyframe_pose_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, trajectory_t*);
 
-DecodeResult decode_trajectory_v1(const void* data, std::size_t size, const DecodeLimits& limits, trajectory_t* out) {
+namespace {
+/// @brief Proves a message of an older layout (fingerprint `hash`, fields walked by `walk`) before it is upgraded;
+///        the result is ok when every byte is where that layout puts it.
+template <typename Walk>
+DecodeResult prove_old_layout(const void* data, std::size_t size, std::int64_t hash, const Walk& walk) {
   DecodeResult result;
   if (data == nullptr || size < 8) {
     result.reason = "no fingerprint";
     return result;
   }
   WireWalker w(data, size);
-  w.fingerprint(kTrajectoryV1Hash);
-  walk_trajectory_v1(w, limits);
+  w.fingerprint(hash);
+  walk(w);
   w.end();
-  if (!w.ok()) {
-    result.reason = w.error();
-    result.offset = w.error_offset();
-    return result;
-  }
+  result.ok = w.ok();
+  result.reason = w.error();
+  result.offset = w.error_offset();
+  return result;
+}
+}  // namespace
+
+DecodeResult decode_trajectory_v1(const void* data, std::size_t size, const DecodeLimits& limits, trajectory_t* out) {
+  DecodeResult proof = prove_old_layout(data, size, kTrajectoryV1Hash, [&](WireWalker& w) { walk_trajectory_v1(w, limits); });
+  if (!proof.ok) return proof;
   // Today's layout of the same message: the new fingerprint, the version-1 fields, full = true and
   // total_keyframes = num_keyframes (a version-1 message held every keyframe).
   WireWalker header(data, size);
@@ -283,20 +292,8 @@ DecodeResult decode_trajectory_v1(const void* data, std::size_t size, const Deco
 }
 
 DecodeResult decode_point_cloud_v1(const void* data, std::size_t size, const DecodeLimits& limits, point_cloud_t* out) {
-  DecodeResult result;
-  if (data == nullptr || size < 8) {
-    result.reason = "no fingerprint";
-    return result;
-  }
-  WireWalker w(data, size);
-  w.fingerprint(kPointCloudV1Hash);
-  walk_point_cloud_v1(w, limits);
-  w.end();
-  if (!w.ok()) {
-    result.reason = w.error();
-    result.offset = w.error_offset();
-    return result;
-  }
+  DecodeResult proof = prove_old_layout(data, size, kPointCloudV1Hash, [&](WireWalker& w) { walk_point_cloud_v1(w, limits); });
+  if (!proof.ok) return proof;
   // Today's layout of the same message: the new fingerprint, the version-1 fields, num_point_times = 0 (no times).
   std::vector<std::uint8_t> upgraded = with_fingerprint(data, size, point_cloud_t::getHash());
   append_big_endian(&upgraded, 0, 4);
