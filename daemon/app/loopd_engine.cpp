@@ -290,7 +290,7 @@ void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shar
         [this](const KeyframeRecord& k, const Eigen::Isometry3d& T_map_sensor) { sink_->on_keyframe(k, T_map_sensor); });
     if (out.correction) sink_->on_correction(*out.correction);
     sink_->on_keyframe_decided(item.first.key);
-    if (out.correction && out.correction->method.find("graph") != std::string::npos) {  // after a solve
+    if (out.correction && out.correction->graph_solved) {  // after a solve
       release_free_heap();
       page_out_library_code(kCompilerLibraries);  // PoCL compiles a kernel variant now and then
     }

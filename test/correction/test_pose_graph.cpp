@@ -246,7 +246,8 @@ TEST_CASE("heuristic+graph online: the graph is re-solved at most once per max(g
         const int interval = std::max(min_interval, static_cast<int>(fraction * (i + 1)));
         const bool far_off = r.start_translation_error > cfg.graph_now_translation || r.start_rotation_error > cfg.graph_now_rotation_deg * kDeg;
         INFO("loop ending at " << i << ": " << r.start_translation_error << " m off before, deferred " << r.graph_deferred);
-        if (next == 0) CHECK(far_off);  // the first loop of the drive: odometry drift
+        if (next == 0) CHECK(far_off);               // the first loop of the drive: odometry drift
+        CHECK(r.graph_solved == !r.graph_deferred);  // what the daemon frees memory after
         if (r.graph_deferred) {
           ++*deferred;
           CHECK(i - last_solved < interval);

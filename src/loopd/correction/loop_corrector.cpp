@@ -70,6 +70,7 @@ CorrectionResult LoopCorrector::run_graph(std::vector<Eigen::Isometry3d> warm, C
   r.ms_graph = g.ms;
   r.graph_iterations = g.iterations;
   r.graph_converged = g.converged;
+  r.graph_solved = true;
   r.reason = g.message;
   if (g.poses.size() == odometry_.size()) corrected_ = g.poses;
   return r;

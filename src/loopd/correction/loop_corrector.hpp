@@ -48,6 +48,7 @@ struct CorrectionResult {
   double ms_graph = 0;      ///< [ms]
   int graph_iterations = 0;
   bool graph_converged = false;
+  bool graph_solved = false;           ///< a pose-graph solve ran (not only the heuristic)
   bool graph_deferred = false;         ///< heuristic+graph: closed by the heuristic, the graph waits (graph_interval)
   double start_translation_error = 0;  ///< [m] loop-end mismatch of the new loop before correction
   double start_rotation_error = 0;     ///< [rad]

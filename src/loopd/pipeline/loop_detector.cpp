@@ -233,6 +233,7 @@ CorrectionOutput LoopDetector::correction_output(const CorrectionResult& result,
   c.revision = ++revision_;
   c.loop_event_id = loop_event_id;
   c.method = to_string(result.method);
+  c.graph_solved = result.graph_solved;
   c.T_map_odom = corrector_.T_map_odom();
   c.resume_state = corrector_.resume_state();
   const std::vector<Eigen::Isometry3d>& corrected = corrector_.corrected_poses();

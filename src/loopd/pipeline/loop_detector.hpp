@@ -73,6 +73,7 @@ struct CorrectionOutput {
   std::int64_t revision = 0;
   std::int64_t loop_event_id = 0;
   std::string method;
+  bool graph_solved = false;                    ///< a pose-graph solve made this revision (its memory was just freed)
   std::vector<KeyframeKey> keys;                ///< every keyframe, in the order they were added
   std::vector<std::int64_t> utimes;             ///< [us] by keys
   std::vector<Eigen::Isometry3d> T_map_sensor;  ///< corrected poses, by keys
