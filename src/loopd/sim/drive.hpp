@@ -23,11 +23,27 @@ namespace loopd {
 ///    (1,0) W (0,0) N (0,1) E (1,1) S (1,0), back via S (1,-1) W (0,-1) N (0,0) (~620 m).
 /// A 1000-scan drive at 1 m per scan covers visits 0, 1 and the first opposite-direction edge; a lap is ~1.37 km.
 /// Parked cars marked movable change state with the visit (later laps continue counting visits: lap * 3 + v).
+///
+/// Sessions (multi-session mapping: the same town driven again on another day). Session 1 is the drive above. Session
+/// K >= 2 drives the same town (make_town(seed): same buildings, poles, trees and static parked cars) and the same lap,
+/// but:
+///  - even K drive the lap in the opposite direction (its waypoints reversed, in the right-hand lane of that direction,
+///    without the lane-offset stretch); odd K in the same direction;
+///  - it starts start_offset metres into its lap: lap length * hash_uniform(seed, K, attempt) for the first attempt
+///    (0, 1, ...) whose start is more than 50 m from session 1's first pose or heads more than 90 deg away from it;
+///  - its own odometry noise and drift (seeded by (seed, K)) and its own odometry frame: odometry starts at identity
+///    at its first scan, while ground truth stays in session 1's world frame;
+///  - its own scan noise and vegetation (scan seeds hashed with K) and parked-car states (cars on visit v show the
+///    state of visit v + (K - 1) * 2^20: the movable cars moved between sessions);
+///  - its scans start (K - 1) days after start_utime.
+/// odometry_reset_at = N (any session) restarts the odometry at scan N as a restarted odometry process would:
+/// T_odom_sensor(N) = I, drift from there; ground truth, noise draws and every other scan's step are unchanged.
 struct DriveConfig {
   std::string sensor = "hdl64";  ///< lidar model name (lidar_model_from_name)
-  /// Route: "town" (the three-visit lap above) or "block" (the short block loop driven again and again in the same
-  /// direction, cars changing with every lap, the third lap starting in the lane-offset position): many revisits in
-  /// few scans, for end-to-end tests and the demo.
+  /// Route: "town" (the three-visit lap above), "block" (the short block loop driven again and again in the same
+  /// direction, cars changing with every lap, the third lap starting in the lane-offset position: many revisits in
+  /// few scans, for end-to-end tests and the demo) or "ring" (the streets two blocks in from the town's edges, ~1.5 km
+  /// a round, driven round after round counter-clockwise: first revisit after a whole round, for large-drift tests).
   std::string route = "town";
   int num_scans = 1000;
   std::uint64_t seed = 1;                       ///< town, noise and odometry drift seed
@@ -37,7 +53,9 @@ struct DriveConfig {
   double lane_lateral = -2.0;                   ///< [m] usual lane: left of the street centre line (negative = right)
   double lane_offset = 3.0;                     ///< [m] extra lateral offset on the lane-offset stretch
   double corner_radius = 9.0;                   ///< [m] corner rounding at intersections
-  std::int64_t start_utime = 1700000000000000;  ///< [us]
+  std::int64_t start_utime = 1700000000000000;  ///< [us] session 1's first scan; session K's is (K - 1) days later
+  int session = 1;                              ///< 1 = the reference drive; >= 2: another day's drive (above), <= 1000
+  std::optional<int> odometry_reset_at;         ///< scan in [1, num_scans) where the odometry restarts from identity
   // Odometry drift (applied to ground-truth increments).
   double heading_bias_deg_per_100m = 0.5;  ///< systematic yaw drift [deg / 100 m]
   double scale_bias = 0.01;                ///< systematic scale error of translation (1 %)
@@ -60,8 +78,11 @@ struct DriveScan {
   int index = 0;
   std::int64_t utime = 0;                                            ///< [us] stamp: the end of the sweep
   Eigen::Isometry3d T_world_sensor = Eigen::Isometry3d::Identity();  ///< ground truth at utime
-  StampedPose odometry;         ///< drifting odometry (starts at the ground truth); residual [m] of the step ending here
-  int visit = 0;                ///< visit counter (which state the movable cars are in)
+  /// Drifting odometry: session 1 starts at the ground truth, session K >= 2 and an odometry reset at identity;
+  /// residual [m] of the step ending here.
+  StampedPose odometry;
+  int odometry_segment = 0;     ///< 0, then 1 from DriveConfig::odometry_reset_at on (a new odometry frame)
+  int visit = 0;                ///< visit counter (the movable cars show visit + Drive::car_visit_offset)
   double route_distance = 0.0;  ///< [m] travelled since the start
   double injected_error = 0.0;  ///< [m] random drift injected on the step ending here (translation + 10 m * yaw)
   bool degraded = false;        ///< inside a degraded (burst) stretch
@@ -83,14 +104,18 @@ struct Drive {
   double lap_length = 0.0;           ///< [m] route length of one lap
   std::vector<DrivePathPoint> path;  ///< one lap of the driven path (lane offsets applied), 5 cm apart
   std::string error;                 ///< non-empty when the config was invalid (scans empty)
+  bool reversed = false;             ///< the lap is driven in the opposite direction (even sessions)
+  double start_offset = 0.0;         ///< [m] where in its lap scan 0 is (0 for session 1)
+  int car_visit_offset = 0;          ///< added to a scan's visit for the parked cars' states: (session - 1) * 2^20
 
-  /// @brief Ray-casts scan i (noise seed = hash(config.seed, i), cars as on scans[i].visit) with config.effects: with
+  /// @brief Ray-casts scan i (noise seed scan_seed(i), cars as on visit scans[i].visit + car_visit_offset) with config.effects: with
   /// motion skew, its sweep follows the route from scans[i].route_distance - speed / rate_hz to scans[i].route_distance.
   PointCloud simulate(int i, int num_threads) const;
-  /// @brief Ground-truth sensor pose after `route_distance` [m] of the route (any real number: laps repeat); the pose of
+  /// @brief Ground-truth sensor pose after `route_distance` [m] of the drive (any real number: laps repeat; from
+  /// start_offset into the lap); the pose of
   /// scans[i] is pose_at_distance(scans[i].route_distance).
   Eigen::Isometry3d pose_at_distance(double route_distance) const;
-  /// @brief Seed of scan i's noise.
+  /// @brief Seed of scan i's noise: hash(config.seed, i), hashed with config.session for sessions >= 2.
   std::uint64_t scan_seed(int i) const;
   /// @brief Route distance covered [m].
   double route_length() const { return scans.empty() ? 0.0 : scans.back().route_distance; }
@@ -100,7 +125,8 @@ struct Drive {
   int count_revisits(double radius = 1.0, int min_gap = 100) const;
 };
 
-/// @brief Builds the route, ground truth and drifting odometry for `config`. Deterministic for config.seed.
+/// @brief Builds the route, ground truth and drifting odometry for `config`. Deterministic for config.seed and
+/// config.session; session 1 without odometry_reset_at is the drive of before sessions, bit for bit.
 Drive make_drive(const DriveConfig& config);
 
 }  // namespace loopd

@@ -12,7 +12,10 @@
 ///  - simulate_sweep(town, model, pose_at, period, SensorEffects, ...): a sweep with motion skew, per-point times,
 ///    dropouts and porous vegetation.                                                                [lidar_sim.hpp]
 ///  - make_drive(DriveConfig): route with revisits, ground truth, drifting odometry with residuals;
-///    Drive::simulate(i, num_threads) ray-casts scan i with DriveConfig::effects (all on by default).   [drive.hpp]
+///    Drive::simulate(i, num_threads) ray-casts scan i with DriveConfig::effects (all on by default);
+///    DriveConfig::session K >= 2: the same town on another day (other start, reversed for even K, own odometry
+///    frame), DriveConfig::odometry_reset_at: a restarted odometry.                                       [drive.hpp]
+///  - build_route_path(town, config, reversed): one lap of a route's driven path.                        [route.hpp]
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/sim/drive.hpp"
 #include "loopd/sim/lidar_sim.hpp"
