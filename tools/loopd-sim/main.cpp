@@ -4,7 +4,9 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
+#include <array>
 #include <iostream>
+#include <optional>
 #include <thread>
 
 #include "loopd/core/stopwatch.hpp"
@@ -59,6 +61,35 @@ void add_effect_options(CLI::App& app, loopd::SensorEffects* fx) {
       ->capture_default_str();
 }
 
+/// Drive options: route, seed, session, speed and the odometry's drift; --odometry-reset-at into *reset_at.
+void add_drive_options(CLI::App& app, loopd::DriveConfig* cfg, std::optional<int>* reset_at) {
+  app.add_option("--sensor", cfg->sensor, "lidar model (see --list-sensors)")->capture_default_str();
+  app.add_option("--scans", cfg->num_scans, "number of scans")->capture_default_str();
+  app.add_option("--seed", cfg->seed, "town / noise / drift seed")->capture_default_str();
+  app.add_option("--route", cfg->route,
+                 "route: town (three visits: block loop, long loop with lane offset, opposite direction), block (the block loop, lap after "
+                 "lap) or ring (the streets two blocks in from the town's edges, ~1.5 km a round, round after round: first revisit after "
+                 "a whole round, for large drift)")
+      ->capture_default_str();
+  app.add_option("--speed", cfg->speed, "vehicle speed [m/s]")->capture_default_str();
+  app.add_option("--rate", cfg->rate_hz, "scan rate [Hz]")->capture_default_str();
+  app.add_option("--heading-bias", cfg->heading_bias_deg_per_100m, "odometry heading bias [deg/100 m]")->capture_default_str();
+  app.add_option("--scale-bias", cfg->scale_bias, "odometry scale bias (fraction)")->capture_default_str();
+  app.add_option("--yaw-walk", cfg->yaw_random_walk_deg, "odometry yaw random walk [deg/step]")->capture_default_str();
+  app.add_option("--translation-noise", cfg->translation_noise, "odometry translation noise [m/step]")->capture_default_str();
+  app.add_option("--burst-probability", cfg->burst_probability, "chance per step of a degraded odometry stretch")->capture_default_str();
+  app.add_option("--session", cfg->session,
+                 "session K in [1, 1000]: 1 = the drive of --seed; K >= 2 = the same town (same static geometry) on another day: "
+                 "even K drive the route in the opposite direction (right-hand lane), odd K in the same; the start is lap length * "
+                 "hash(seed, K, attempt) into the lap for the first attempt whose start is > 50 m from session 1's or heads > 90 deg "
+                 "away; own odometry noise and drift (seeded by seed, K), odometry starting at identity (ground truth in session 1's "
+                 "world frame), own scan noise and parked-car states; scans start K - 1 days after session 1's")
+      ->capture_default_str();
+  app.add_option("--odometry-reset-at", *reset_at,
+                 "scan N in [1, scans) where the odometry restarts (a restarted odometry process): T_odom_sensor(N) = identity, drift "
+                 "from there; ground truth unchanged");
+}
+
 std::string effects_text(const loopd::SensorEffects& fx) {
   std::string s;
   auto add = [&s](bool on, const std::string& name) {
@@ -71,66 +102,60 @@ std::string effects_text(const loopd::SensorEffects& fx) {
   return s.empty() ? "none" : s;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"loopd-sim: simulated lidar drive through a procedural town, written as an lcm-logger file"};
-  loopd::DriveConfig cfg;
-  std::string out;
-  bool json = false, list = false, quiet = false;
+/// What the run measured, for the summary.
+struct RunFigures {
+  double seconds = 0.0;
   int threads = 0;
-  app.add_option("--out", out, "output lcm-logger file");
-  app.add_option("--sensor", cfg.sensor, "lidar model (see --list-sensors)")->capture_default_str();
-  app.add_option("--scans", cfg.num_scans, "number of scans")->capture_default_str();
-  app.add_option("--seed", cfg.seed, "town / noise / drift seed")->capture_default_str();
-  app.add_option("--route", cfg.route,
-                 "route: town (three visits: block loop, long loop with lane offset, opposite direction) or block (the block loop, lap after lap)")
-      ->capture_default_str();
-  app.add_option("--speed", cfg.speed, "vehicle speed [m/s]")->capture_default_str();
-  app.add_option("--rate", cfg.rate_hz, "scan rate [Hz]")->capture_default_str();
-  app.add_option("--heading-bias", cfg.heading_bias_deg_per_100m, "odometry heading bias [deg/100 m]")->capture_default_str();
-  app.add_option("--scale-bias", cfg.scale_bias, "odometry scale bias (fraction)")->capture_default_str();
-  app.add_option("--yaw-walk", cfg.yaw_random_walk_deg, "odometry yaw random walk [deg/step]")->capture_default_str();
-  app.add_option("--translation-noise", cfg.translation_noise, "odometry translation noise [m/step]")->capture_default_str();
-  app.add_option("--burst-probability", cfg.burst_probability, "chance per step of a degraded odometry stretch")->capture_default_str();
-  add_effect_options(app, &cfg.effects);
-  app.add_option("--threads", threads, "ray-casting threads (0 = all cores)")->capture_default_str();
-  app.add_flag("--list-sensors", list, "list the lidar models and exit");
-  app.add_flag("--json", json, "print one JSON object as the last line");
-  app.add_flag("--quiet", quiet, "no progress bar");
-  CLI11_PARSE(app, argc, argv);
+  std::vector<double> points_per_scan, ms_cast, ms_write;
+};
 
-  if (list) return list_sensors(json);
-  if (out.empty()) {
-    std::cerr << "loopd-sim: --out is required (or --list-sensors)\n";
-    return 2;
-  }
-  if (auto err = cfg.validate()) {
-    std::cerr << "loopd-sim: " << *err << "\n";
-    return 2;
-  }
+/// The --json line. fig: points per scan mean / min / max, cast median / p95, write median [ms], odometry end error [m], bytes.
+void print_summary_json(const loopd::Drive& drive, const std::string& out, const RunFigures& run, const std::array<double, 8>& fig, int revisits) {
+  const loopd::DriveConfig& cfg = drive.config;
+  const auto& fx = cfg.effects;
+  loopd::tools::print_json_line({{"out", out},
+                                 {"sensor", drive.model.name},
+                                 {"effects",
+                                  {{"motion_skew", fx.motion_skew},
+                                   {"point_times", fx.point_times},
+                                   {"dropouts", fx.dropouts},
+                                   {"dropout_rate", fx.dropout_rate},
+                                   {"vegetation", fx.vegetation},
+                                   {"foliage_density", fx.foliage_density}}},
+                                 {"scans", drive.scans.size()},
+                                 {"seed", cfg.seed},
+                                 {"route", cfg.route},
+                                 {"session", cfg.session},
+                                 {"reversed", drive.reversed},
+                                 {"start_offset_m", drive.start_offset},
+                                 {"start_utime", drive.scans.front().utime},
+                                 {"odometry_reset_at", cfg.odometry_reset_at ? nlohmann::json(*cfg.odometry_reset_at) : nlohmann::json(nullptr)},
+                                 {"points_per_scan_mean", fig[0]},
+                                 {"points_per_scan_min", fig[1]},
+                                 {"points_per_scan_max", fig[2]},
+                                 {"route_length_m", drive.route_length()},
+                                 {"lap_length_m", drive.lap_length},
+                                 {"visits", drive.num_visits()},
+                                 {"revisits", revisits},
+                                 {"odometry_end_error_m", fig[6]},
+                                 {"cast_ms_median", fig[3]},
+                                 {"cast_ms_p95", fig[4]},
+                                 {"write_ms_median", fig[5]},
+                                 {"threads", run.threads},
+                                 {"bytes", static_cast<std::uint64_t>(fig[7])},
+                                 {"seconds", run.seconds}});
+}
 
-  loopd::Stopwatch total;
-  const loopd::Drive drive = loopd::make_drive(cfg);
-  if (!drive.error.empty()) {
-    std::cerr << "loopd-sim: " << drive.error << "\n";
-    return 2;
-  }
-  loopd::LogWriter writer;
-  std::string error;
-  if (!writer.open(out, &error)) {
-    std::cerr << "loopd-sim: cannot open " << out << ": " << error << "\n";
-    return 1;
-  }
-  const int nt = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+/// Writes every scan with its odometry and ground truth: scan i+1 is ray-cast on a worker while scan i is encoded and
+/// written (same results as serial: each scan only depends on its index). False when a write failed.
+bool write_drive(const loopd::Drive& drive, loopd::LogWriter* writer, bool quiet, RunFigures* run) {
   const int n = static_cast<int>(drive.scans.size());
   loopd::tools::Progress progress("loopd-sim", n, !quiet);
-  std::vector<double> points_per_scan, ms_cast, ms_write;
+  std::vector<double>&points_per_scan = run->points_per_scan, &ms_cast = run->ms_cast, &ms_write = run->ms_write;
+  const int nt = run->threads;
   points_per_scan.reserve(static_cast<std::size_t>(n));
   bool ok = true;
 
-  // Ray-cast scan i+1 on a worker while scan i is encoded and written (same results as serial: each scan only
-  // depends on its index).
   loopd::PointCloud current, next;
   loopd::Stopwatch sw;
   current = drive.simulate(0, nt);
@@ -150,9 +175,9 @@ int main(int argc, char** argv) {
     loopd::StampedPose gt;
     gt.utime = sc.utime;
     gt.T_world_sensor = sc.T_world_sensor;
-    ok = writer.write_message(loopd::channels::kPose, sc.utime, loopd::to_message(sc.odometry, i)) &&
-         writer.write_message(loopd::channels::kGroundTruth, sc.utime, loopd::to_message(gt, i)) &&
-         writer.write_message(loopd::channels::kScan, sc.utime, loopd::to_message(current, sc.utime, i, "lidar"));
+    ok = writer->write_message(loopd::channels::kPose, sc.utime, loopd::to_message(sc.odometry, i)) &&
+         writer->write_message(loopd::channels::kGroundTruth, sc.utime, loopd::to_message(gt, i)) &&
+         writer->write_message(loopd::channels::kScan, sc.utime, loopd::to_message(current, sc.utime, i, "lidar"));
     points_per_scan.push_back(static_cast<double>(current.size()));
     ms_write.push_back(ws.ms());
     if (worker.joinable()) worker.join();
@@ -163,25 +188,30 @@ int main(int argc, char** argv) {
     progress.update(i + 1);
   }
   progress.finish();
-  writer.close();
-  if (!ok) {
-    std::cerr << "loopd-sim: write to " << out << " failed\n";
-    return 1;
-  }
-  const double seconds = total.ms() / 1000.0;
-  const auto pts = loopd::tools::summarize(points_per_scan);
-  const auto cast = loopd::tools::summarize(ms_cast);
-  const auto wr = loopd::tools::summarize(ms_write);
-  double min_pts = points_per_scan.empty() ? 0.0 : *std::min_element(points_per_scan.begin(), points_per_scan.end());
+  return ok;
+}
+
+/// The summary table, and with `json` one JSON object as the last line.
+void print_summary(const loopd::Drive& drive, const std::string& out, bool json, const RunFigures& run) {
+  const loopd::DriveConfig& cfg = drive.config;
+  const int n = static_cast<int>(drive.scans.size());
+  const auto pts = loopd::tools::summarize(run.points_per_scan);
+  const auto cast = loopd::tools::summarize(run.ms_cast);
+  const auto wr = loopd::tools::summarize(run.ms_write);
+  const double min_pts = run.points_per_scan.empty() ? 0.0 : *std::min_element(run.points_per_scan.begin(), run.points_per_scan.end());
   const auto& last = drive.scans.back();
   const double end_error = (last.odometry.T_world_sensor.translation() - last.T_world_sensor.translation()).norm();
   const int revisits = drive.count_revisits(1.0, 100);
   std::error_code ec;
   const auto bytes = std::filesystem::file_size(out, ec);
+  const std::string reset = cfg.odometry_reset_at ? "at scan " + std::to_string(*cfg.odometry_reset_at) : "none";
 
   loopd::tools::Table table({"quantity", "value"});
   table.add({"sensor", drive.model.name});
   table.add({"sensor effects", effects_text(cfg.effects)});
+  table.add(
+      {"session", std::to_string(cfg.session) + (drive.reversed ? " (reversed)" : "") + ", start " + fmt(drive.start_offset, 1) + " m into the lap"});
+  table.add({"odometry reset", reset});
   table.add({"scans", std::to_string(n)});
   table.add({"points/scan (mean / min / max)", fmt(pts.mean, 0) + " / " + fmt(min_pts, 0) + " / " + fmt(pts.max, 0)});
   table.add({"route length [m]", fmt(drive.route_length(), 1)});
@@ -191,36 +221,65 @@ int main(int argc, char** argv) {
   table.add({"odometry end error [m]", fmt(end_error, 2)});
   table.add({"ray cast ms/scan (median / p95)", fmt(cast.median, 1) + " / " + fmt(cast.p95, 1)});
   table.add({"encode+write ms/scan (median)", fmt(wr.median, 1)});
-  table.add({"threads", std::to_string(nt)});
+  table.add({"threads", std::to_string(run.threads)});
   table.add({"file size [MB]", fmt(static_cast<double>(bytes) / 1e6, 1)});
-  table.add({"seconds", fmt(seconds, 2)});
+  table.add({"seconds", fmt(run.seconds, 2)});
   std::cout << table.str();
-  if (json) {
-    loopd::tools::print_json_line({{"out", out},
-                                   {"sensor", drive.model.name},
-                                   {"effects",
-                                    {{"motion_skew", cfg.effects.motion_skew},
-                                     {"point_times", cfg.effects.point_times},
-                                     {"dropouts", cfg.effects.dropouts},
-                                     {"dropout_rate", cfg.effects.dropout_rate},
-                                     {"vegetation", cfg.effects.vegetation},
-                                     {"foliage_density", cfg.effects.foliage_density}}},
-                                   {"scans", n},
-                                   {"seed", cfg.seed},
-                                   {"points_per_scan_mean", pts.mean},
-                                   {"points_per_scan_min", min_pts},
-                                   {"points_per_scan_max", pts.max},
-                                   {"route_length_m", drive.route_length()},
-                                   {"lap_length_m", drive.lap_length},
-                                   {"visits", drive.num_visits()},
-                                   {"revisits", revisits},
-                                   {"odometry_end_error_m", end_error},
-                                   {"cast_ms_median", cast.median},
-                                   {"cast_ms_p95", cast.p95},
-                                   {"write_ms_median", wr.median},
-                                   {"threads", nt},
-                                   {"bytes", static_cast<std::uint64_t>(bytes)},
-                                   {"seconds", seconds}});
+  if (json)
+    print_summary_json(drive, out, run, {pts.mean, min_pts, pts.max, cast.median, cast.p95, wr.median, end_error, static_cast<double>(bytes)},
+                       revisits);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"loopd-sim: simulated lidar drive through a procedural town, written as an lcm-logger file"};
+  loopd::DriveConfig cfg;
+  std::optional<int> reset_at;
+  std::string out;
+  bool json = false, list = false, quiet = false;
+  int threads = 0;
+  app.add_option("--out", out, "output lcm-logger file");
+  add_drive_options(app, &cfg, &reset_at);
+  add_effect_options(app, &cfg.effects);
+  app.add_option("--threads", threads, "ray-casting threads (0 = all cores)")->capture_default_str();
+  app.add_flag("--list-sensors", list, "list the lidar models and exit");
+  app.add_flag("--json", json, "print one JSON object as the last line");
+  app.add_flag("--quiet", quiet, "no progress bar");
+  CLI11_PARSE(app, argc, argv);
+
+  if (list) return list_sensors(json);
+  if (out.empty()) {
+    std::cerr << "loopd-sim: --out is required (or --list-sensors)\n";
+    return 2;
   }
+  cfg.odometry_reset_at = reset_at;
+  if (auto err = cfg.validate()) {
+    std::cerr << "loopd-sim: " << *err << "\n";
+    return 2;
+  }
+
+  loopd::Stopwatch total;
+  const loopd::Drive drive = loopd::make_drive(cfg);
+  if (!drive.error.empty()) {
+    std::cerr << "loopd-sim: " << drive.error << "\n";
+    return 2;
+  }
+  loopd::LogWriter writer;
+  std::string error;
+  if (!writer.open(out, &error)) {
+    std::cerr << "loopd-sim: cannot open " << out << ": " << error << "\n";
+    return 1;
+  }
+  RunFigures run;
+  run.threads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const bool ok = write_drive(drive, &writer, quiet, &run);
+  writer.close();
+  if (!ok) {
+    std::cerr << "loopd-sim: write to " << out << " failed\n";
+    return 1;
+  }
+  run.seconds = total.ms() / 1000.0;
+  print_summary(drive, out, json, run);
   return 0;
 }
