@@ -1,0 +1,102 @@
+// Scan Context retrieval (Kim & Kim, IROS 2018, Sec. III-C): ring-key k-NN, then the shift-minimised distance.
+#include "loopd/retrieval/place_index.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <utility>
+
+#include "loopd/core/stopwatch.hpp"
+
+namespace loopd {
+
+std::optional<std::string> RetrievalConfig::validate() const {
+  if (k < 1) return "retrieval: k must be >= 1";
+  if (ring_candidates < k) return "retrieval: ring_candidates must be >= k";
+  if (!(max_place_distance >= 0.f) || !(max_place_distance <= 1.f)) return "retrieval: max_place_distance must be in [0, 1]";
+  return std::nullopt;
+}
+
+bool PlaceIndex::compatible(const PlaceDescriptor& d) const {
+  return d.num_rings == num_rings_ && d.num_sectors == num_sectors_ && d.max_range == max_range_ && d.height_offset == height_offset_ &&
+         d.height_step == height_step_;
+}
+
+bool PlaceIndex::add(const KeyframeKey& key, PlaceDescriptor d) {
+  const auto nr = static_cast<std::size_t>(d.num_rings), ns = static_cast<std::size_t>(d.num_sectors);
+  if (!d.ok || nr == 0 || ns == 0 || d.bins.size() != nr * ns || d.column_norms.size() != ns || d.ring_key.size() != nr) return false;
+  std::unique_lock lock(mutex_);
+  if (keys_.empty()) {
+    num_rings_ = d.num_rings;
+    num_sectors_ = d.num_sectors;
+    max_range_ = d.max_range;
+    height_offset_ = d.height_offset;
+    height_step_ = d.height_step;
+  } else if (!compatible(d)) {
+    return false;
+  }
+  keys_.push_back(key);
+  ring_keys_.insert(ring_keys_.end(), d.ring_key.begin(), d.ring_key.end());
+  bins_.insert(bins_.end(), d.bins.begin(), d.bins.end());
+  column_norms_.insert(column_norms_.end(), d.column_norms.begin(), d.column_norms.end());
+  return true;
+}
+
+std::size_t PlaceIndex::size() const {
+  std::shared_lock lock(mutex_);
+  return keys_.size();
+}
+
+std::size_t PlaceIndex::bytes() const {
+  std::shared_lock lock(mutex_);
+  return keys_.capacity() * sizeof(KeyframeKey) + ring_keys_.capacity() * sizeof(float) + bins_.capacity() + column_norms_.capacity() * sizeof(float);
+}
+
+std::vector<PlaceCandidate> PlaceIndex::query(const PlaceDescriptor& q, const RetrievalConfig& config,
+                                              const std::function<bool(const KeyframeKey&)>& accept, PlaceQueryStats* stats) const {
+  Stopwatch watch;
+  std::shared_lock lock(mutex_);
+  const auto nr = static_cast<std::size_t>(num_rings_), ns = static_cast<std::size_t>(num_sectors_);
+  if (config.validate() || !q.ok || keys_.empty() || !compatible(q) || q.ring_key.size() != nr || q.bins.size() != nr * ns ||
+      q.column_norms.size() != ns)
+    return {};
+  // Exact ring-key k-NN over the accepted entries (Kim & Kim 2018 use a k-d tree; a flat scan is exact and as fast here).
+  std::vector<std::pair<float, std::size_t>> nearest;
+  nearest.reserve(keys_.size());
+  const float* key_q = q.ring_key.data();
+  for (std::size_t i = 0; i < keys_.size(); ++i) {
+    if (accept && !accept(keys_[i])) continue;
+    const float* key_i = ring_keys_.data() + i * nr;
+    float d2 = 0.f;
+    for (std::size_t r = 0; r < nr; ++r) d2 += (key_i[r] - key_q[r]) * (key_i[r] - key_q[r]);
+    nearest.emplace_back(d2, i);
+  }
+  const std::size_t accepted = nearest.size();
+  const std::size_t m = std::min(nearest.size(), static_cast<std::size_t>(config.ring_candidates));
+  std::nth_element(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(m), nearest.end());
+  nearest.resize(m);
+  const double ring_ms = watch.ms();
+
+  std::vector<float> qn(nr * ns);
+  detail::normalised_columns(q, qn.data());
+  std::vector<PlaceCandidate> out;
+  out.reserve(m);
+  for (const auto& [d2, i] : nearest) {
+    const PlaceMatch match = detail::place_distance_normalised(q, qn.data(), bins_.data() + i * nr * ns, column_norms_.data() + i * ns);
+    if (match.distance > config.max_place_distance) continue;
+    out.push_back(PlaceCandidate{keys_[i], std::sqrt(d2), match.distance, match.yaw_match_query});
+  }
+  std::sort(out.begin(), out.end(), [](const PlaceCandidate& a, const PlaceCandidate& b) {
+    return a.place_distance < b.place_distance || (a.place_distance == b.place_distance && a.key < b.key);
+  });
+  if (out.size() > static_cast<std::size_t>(config.k)) out.resize(static_cast<std::size_t>(config.k));
+  if (stats) {
+    stats->accepted = accepted;
+    stats->compared = m;
+    stats->ring_key_ms = ring_ms;
+    stats->full_distance_ms = watch.ms() - ring_ms;
+  }
+  return out;
+}
+
+}  // namespace loopd
