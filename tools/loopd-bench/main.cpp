@@ -11,6 +11,7 @@ int run_bench_correct(int argc, char** argv);
 int run_bench_pipeline(int argc, char** argv);
 int run_bench_soak(int argc, char** argv);
 int run_bench_deskew(int argc, char** argv);
+int run_bench_retrieval(int argc, char** argv);
 
 namespace {
 struct Subcommand {
@@ -27,6 +28,7 @@ constexpr Subcommand kSubcommands[] = {
     {"pipeline", run_bench_pipeline, "whole pipeline on a simulated drive: throughput, latency, memory"},
     {"soak", run_bench_soak, "loopd live for N minutes on a looping drive: RSS, threads, fds, latency"},
     {"deskew", run_bench_deskew, "deskew of the sharpest-turning simulated scan: ms and error per variant"},
+    {"retrieval", run_bench_retrieval, "Scan Context PlaceIndex: ms per query among 100k descriptors, index bytes"},
 };
 void usage() {
   std::cout << "usage: loopd-bench <subcommand> [options] [--json]\n\nsubcommands:\n";
