@@ -133,7 +133,8 @@ void walk(WireWalker& w, const DecodeLimits& limits, const point_cloud_t*) {
   w.skip("time_offset", sizeof(float), static_cast<std::size_t>(times));
 }
 
-void walk(WireWalker& w, const DecodeLimits& limits, const loop_event_t*) {
+/// loop_event_t up to ms_total: the whole of version 1 (before the sessions, `retrieval` and `place_distance`).
+void walk_loop_event_v1(WireWalker& w, const DecodeLimits& limits) {
   w.skip("utime .. match_utime", 8, 6);
   w.skip("status", 1);
   w.string("stage", limits.max_string);
@@ -142,6 +143,16 @@ void walk(WireWalker& w, const DecodeLimits& limits, const loop_event_t*) {
   w.skip("T_match_query", 8, 16);
   w.skip("ms_descriptor .. ms_total", 8, 5);
 }
+
+void walk(WireWalker& w, const DecodeLimits& limits, const loop_event_t*) {
+  walk_loop_event_v1(w, limits);
+  w.skip("query_session .. match_session", 4, 2);
+  w.string("retrieval", limits.max_string);
+  w.skip("place_distance", 8);
+}
+
+/// Fingerprint of loop_event_t version 1 (loopd output logs written before sessions).
+constexpr std::int64_t kLoopEventV1Hash = 0x0ca921302b50cd2aLL;
 
 void walk(WireWalker& w, const DecodeLimits&, const keyframe_pose_t*) {
   w.skip("id", 8);
@@ -152,7 +163,8 @@ void walk(WireWalker& w, const DecodeLimits&, const keyframe_pose_t*) {
 constexpr std::size_t kKeyframePoseBytes = 8 + 8 + 3 * 8 + 4 * 8;
 
 /// trajectory_t up to its keyframes: the whole of version 1 (before `full` and `total_keyframes` were appended).
-void walk_trajectory_v1(WireWalker& w, const DecodeLimits& limits) {
+/// Returns num_keyframes.
+std::int64_t walk_trajectory_v1(WireWalker& w, const DecodeLimits& limits) {
   w.skip("utime", 8);
   w.skip("revision", 8);
   w.skip("loop_event_id", 8);
@@ -160,16 +172,35 @@ void walk_trajectory_v1(WireWalker& w, const DecodeLimits& limits) {
   w.skip("T_map_odom", 8, 16);
   const std::int64_t n = w.length("num_keyframes", w.int32("num_keyframes"), limits.max_keyframes, kKeyframePoseBytes);
   w.skip("keyframes", kKeyframePoseBytes, static_cast<std::size_t>(n));
+  return n;
 }
 
-void walk(WireWalker& w, const DecodeLimits& limits, const trajectory_t*) {
-  walk_trajectory_v1(w, limits);
+/// trajectory_t up to total_keyframes: the whole of version 2 (before the sessions were appended).
+std::int64_t walk_trajectory_v2(WireWalker& w, const DecodeLimits& limits) {
+  const std::int64_t n = walk_trajectory_v1(w, limits);
   w.skip("full", 1);
   w.skip("total_keyframes", 8);
+  return n;
 }
 
-/// Fingerprint of trajectory_t version 1 (loopd output logs written before `full` and `total_keyframes`).
+void walk(WireWalker& w, const DecodeLimits&, const session_alignment_t*) {
+  w.skip("session", 4);
+  w.skip("anchored", 1);
+  w.skip("T_map_session", 8, 16);
+  w.skip("num_keyframes", 8);
+}
+constexpr std::size_t kSessionAlignmentBytes = 4 + 1 + 16 * 8 + 8;
+
+void walk(WireWalker& w, const DecodeLimits& limits, const trajectory_t*) {
+  const std::int64_t n = walk_trajectory_v2(w, limits);
+  w.skip("keyframe_sessions", 4, static_cast<std::size_t>(n));
+  const std::int64_t sessions = w.length("num_sessions", w.int32("num_sessions"), limits.max_sessions, kSessionAlignmentBytes);
+  w.skip("sessions", kSessionAlignmentBytes, static_cast<std::size_t>(sessions));
+}
+
+/// Fingerprints of trajectory_t version 1 (before `full` and `total_keyframes`) and version 2 (before sessions).
 constexpr std::int64_t kTrajectoryV1Hash = 0x5039562511ef5e3aLL;
+constexpr std::int64_t kTrajectoryV2Hash = 0x32d603706da153a4LL;
 
 void walk(WireWalker& w, const DecodeLimits& limits, const channel_stats_t*) {
   w.string("channel", limits.max_string);
@@ -253,6 +284,7 @@ template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimit
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, loop_event_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, keyframe_pose_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, trajectory_t*);
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, session_alignment_t*);
 
 namespace {
 /// @brief Proves a message of an older layout (fingerprint `hash`, fields walked by `walk`) before it is upgraded;
@@ -275,20 +307,66 @@ DecodeResult prove_old_layout(const void* data, std::size_t size, std::int64_t h
 }
 }  // namespace
 
-DecodeResult decode_trajectory_v1(const void* data, std::size_t size, const DecodeLimits& limits, trajectory_t* out) {
-  DecodeResult proof = prove_old_layout(data, size, kTrajectoryV1Hash, [&](WireWalker& w) { walk_trajectory_v1(w, limits); });
-  if (!proof.ok) return proof;
-  // Today's layout of the same message: the new fingerprint, the version-1 fields, full = true and
-  // total_keyframes = num_keyframes (a version-1 message held every keyframe).
+namespace {
+/// @brief num_keyframes of a proven trajectory_t of version 1 or 2 (the same header).
+std::int32_t old_trajectory_keyframes(const void* data, std::size_t size, const DecodeLimits& limits) {
   WireWalker header(data, size);
   header.skip("fingerprint .. loop_event_id", 8, 4);
   header.string("method", limits.max_string);
   header.skip("T_map_odom", 8, 16);
-  const std::int32_t num = header.int32("num_keyframes");
+  return header.int32("num_keyframes");
+}
+
+/// @brief Appends what version 3 adds to version 2: every keyframe in session 0, no session alignments.
+void append_trajectory_v3_fields(std::vector<std::uint8_t>* bytes, std::int32_t num_keyframes) {
+  bytes->insert(bytes->end(), static_cast<std::size_t>(num_keyframes) * 4, 0);
+  append_big_endian(bytes, 0, 4);
+}
+}  // namespace
+
+DecodeResult decode_trajectory_v1(const void* data, std::size_t size, const DecodeLimits& limits, trajectory_t* out) {
+  DecodeResult proof = prove_old_layout(data, size, kTrajectoryV1Hash, [&](WireWalker& w) { walk_trajectory_v1(w, limits); });
+  if (!proof.ok) return proof;
+  // Today's layout of the same message: the new fingerprint, the version-1 fields, full = true and
+  // total_keyframes = num_keyframes (a version-1 message held every keyframe), then version 3's sessions.
+  const std::int32_t num = old_trajectory_keyframes(data, size, limits);
   std::vector<std::uint8_t> upgraded = with_fingerprint(data, size, trajectory_t::getHash());
   upgraded.push_back(1);
   append_big_endian(&upgraded, static_cast<std::uint64_t>(num), 8);
+  append_trajectory_v3_fields(&upgraded, num);
   return decode_bounded(upgraded.data(), upgraded.size(), limits, out);
+}
+
+DecodeResult decode_trajectory_v2(const void* data, std::size_t size, const DecodeLimits& limits, trajectory_t* out) {
+  DecodeResult proof = prove_old_layout(data, size, kTrajectoryV2Hash, [&](WireWalker& w) { walk_trajectory_v2(w, limits); });
+  if (!proof.ok) return proof;
+  std::vector<std::uint8_t> upgraded = with_fingerprint(data, size, trajectory_t::getHash());
+  append_trajectory_v3_fields(&upgraded, old_trajectory_keyframes(data, size, limits));
+  return decode_bounded(upgraded.data(), upgraded.size(), limits, out);
+}
+
+DecodeResult decode_loop_event_v1(const void* data, std::size_t size, const DecodeLimits& limits, loop_event_t* out) {
+  DecodeResult proof = prove_old_layout(data, size, kLoopEventV1Hash, [&](WireWalker& w) { walk_loop_event_v1(w, limits); });
+  if (!proof.ok) return proof;
+  // Sessions 0 and 0, retrieval "gate" (the only one before), place_distance -1.
+  std::vector<std::uint8_t> upgraded = with_fingerprint(data, size, loop_event_t::getHash());
+  append_big_endian(&upgraded, 0, 8);
+  const std::string gate = "gate";
+  append_big_endian(&upgraded, gate.size() + 1, 4);
+  upgraded.insert(upgraded.end(), gate.begin(), gate.end());
+  upgraded.push_back(0);
+  double minus_one = -1.0;
+  std::uint64_t bits = 0;
+  std::memcpy(&bits, &minus_one, sizeof bits);
+  append_big_endian(&upgraded, bits, 8);
+  return decode_bounded(upgraded.data(), upgraded.size(), limits, out);
+}
+
+DecodeResult decode_any_loop_event(const void* data, std::size_t size, const DecodeLimits& limits, loop_event_t* out) {
+  WireWalker w(data, data == nullptr ? 0 : size);
+  const std::int64_t hash = w.int64("fingerprint");
+  if (w.ok() && hash == kLoopEventV1Hash) return decode_loop_event_v1(data, size, limits, out);
+  return decode_bounded(data, size, limits, out);
 }
 
 DecodeResult decode_point_cloud_v1(const void* data, std::size_t size, const DecodeLimits& limits, point_cloud_t* out) {

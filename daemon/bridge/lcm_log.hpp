@@ -88,6 +88,12 @@ class LogReader {
     if (!r.ok && why) *why = r.reason + " (byte " + std::to_string(r.offset) + ")";
     return r.ok;
   }
+  /// @brief A loop_event_t of either layout (decode_any_loop_event: logs of builds before sessions).
+  static bool decode(const LogEvent& event, loop_event_t* msg, std::string* why = nullptr) {
+    DecodeResult r = decode_any_loop_event(event.data.data(), event.data.size(), DecodeLimits{}, msg);
+    if (!r.ok && why) *why = r.reason + " (byte " + std::to_string(r.offset) + ")";
+    return r.ok;
+  }
 
  private:
   std::FILE* file_ = nullptr;

@@ -1,7 +1,8 @@
 #pragma once
 #include <cstdint>
 #include <string>
-#include <unordered_map>
+#include <map>
+#include <utility>
 #include <vector>
 
 #include <loopd/trajectory_t.hpp>
@@ -11,7 +12,7 @@
 namespace loopd {
 
 /// @brief Rebuilds the corrected trajectory from trajectory_t messages in publication order: a full message
-///        (full = true) replaces it, a partial one updates the keyframes it names (by id) and appends the new ones.
+///        (full = true) replaces it, a partial one updates the keyframes it names (by session and id) and appends the new ones.
 ///        A message of an older revision than the one held is ignored (revisions increase with every correction).
 class TrajectoryAssembly {
  public:
@@ -31,7 +32,8 @@ class TrajectoryAssembly {
  private:
   trajectory_t header_;  ///< the newest message applied, without its keyframes
   std::vector<keyframe_pose_t> keyframes_;
-  std::unordered_map<std::int64_t, std::size_t> index_of_id_;
+  std::vector<std::int32_t> sessions_;                                         ///< session of keyframes_[i]
+  std::map<std::pair<std::int32_t, std::int64_t>, std::size_t> index_of_key_;  ///< (session, id) -> position
   bool has_snapshot_ = false;
   std::int64_t applied_ = 0, snapshots_ = 0;
 };
