@@ -36,6 +36,7 @@ std::optional<std::string> LoopCorrectorConfig::validate() const {
   if (graph_interval < 1) return "graph_interval must be >= 1";
   if (!(graph_interval_fraction >= 0.0 && graph_interval_fraction <= 1.0)) return "graph_interval_fraction must be in [0, 1]";
   if (!(graph_now_translation >= 0.0) || !(graph_now_rotation_deg >= 0.0)) return "graph_now_translation and graph_now_rotation_deg must be >= 0";
+  if (!(join_information > 0.0 && join_information <= 1.0)) return "join_information must be in (0, 1]";
   return std::nullopt;
 }
 
@@ -65,8 +66,27 @@ PoseIndex LoopCorrector::add_keyframe(const Eigen::Isometry3d& T_odom_sensor, do
   return index;
 }
 
+PoseIndex LoopCorrector::add_segment_start(const Eigen::Isometry3d& T_odom_sensor) {
+  const PoseIndex index = add_keyframe(T_odom_sensor, 0.0);
+  if (index == 0) return index;  // the first keyframe starts the first segment anyway
+  step_information_.resize(odometry_.size(), Information6d::Zero());
+  step_information_.back() = Information6d::Identity() * config_.join_information;
+  segment_starts_.push_back(index);
+  return index;
+}
+
+std::vector<double> LoopCorrector::heuristic_weights() const {
+  std::vector<double> weights = edge_weights(odometry_, residuals_, config_.heuristic);
+  // A segment join takes (almost) all of a loop's error: the segment after it moves rigidly onto the loop.
+  double total = 0.0;
+  for (double w : weights) total += w;
+  for (PoseIndex s : segment_starts_)
+    if (s < static_cast<PoseIndex>(weights.size())) weights[static_cast<std::size_t>(s)] = std::max(total, 1.0) * 1e6;
+  return weights;
+}
+
 CorrectionResult LoopCorrector::run_graph(std::vector<Eigen::Isometry3d> warm, CorrectionResult r) {
-  const PoseGraphResult g = optimize_pose_graph(odometry_, residuals_, loops_, warm, config_.graph, planes_, step_information_);
+  const PoseGraphResult g = optimize_pose_graph(odometry_, residuals_, loops_, warm, config_.graph, planes_, step_information_, segment_starts_);
   r.ms_graph = g.ms;
   r.graph_iterations = g.iterations;
   r.graph_converged = g.converged;
@@ -107,7 +127,7 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
   const bool graph_due = last_graph_index_ < 0 || e - last_graph_index_ >= interval || far_off;
   // Online case: apply the new loop to the current corrected state; closed spans keep earlier loops closed.
   std::vector<Eigen::Isometry3d> warm = corrected_;
-  const std::vector<double> base = edge_weights(odometry_, residuals_, config_.heuristic);
+  const std::vector<double> base = heuristic_weights();
   if (config_.method != CorrectionMethod::kGraph)
     apply_heuristic_with_spans(warm, base, loop, closed_spans_, config_.heuristic);
   else

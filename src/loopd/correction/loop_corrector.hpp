@@ -35,6 +35,9 @@ struct LoopCorrectorConfig {
   double graph_interval_fraction = 0.02;
   double graph_now_translation = 1.0;   ///< [m]
   double graph_now_rotation_deg = 3.0;  ///< [deg]
+  /// Information of the step that joins two odometry segments (add_segment_start), per axis: weak enough that loops
+  /// alone place a segment (1e-6: sigma 1000 m / 1000 rad), strong enough to keep an unplaced segment's gauge fixed.
+  double join_information = 1e-6;
   std::optional<std::string> validate() const;
 };
 
@@ -89,6 +92,15 @@ class LoopCorrector {
   /// pose_t); the graph then uses it instead of the residual-based sigma for that edge. Zero = unknown.
   PoseIndex add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual, const Information6d& step_information);
 
+  /// @brief Appends the first keyframe of a new odometry segment (another session, or the same drive after its
+  /// odometry restarted): nothing is known about the step from the previous keyframe. T_odom_sensor must continue the
+  /// previous keyframe's pose (the caller stitches the new frame on with zero motion), so the segment starts where the
+  /// last one ended until a loop places it. The step then takes all of a loop's error in the heuristic (the segment
+  /// moves rigidly), and the pose graph gives it the information `join_information` x identity (weak: ~1 km / rad).
+  PoseIndex add_segment_start(const Eigen::Isometry3d& T_odom_sensor);
+  /// @brief Positions that start a segment (add_segment_start), increasing.
+  const std::vector<PoseIndex>& segment_starts() const { return segment_starts_; }
+
   /// @brief Stores the loop and re-corrects the whole trajectory. Zero-length loops and bad indices are rejected
   /// (ok = false, nothing changes); the same keyframe pair twice is accepted (the graph averages them).
   CorrectionResult add_loop(const LoopConstraint& loop);
@@ -128,6 +140,7 @@ class LoopCorrector {
 
  private:
   CorrectionResult run_graph(std::vector<Eigen::Isometry3d> warm, CorrectionResult r);
+  std::vector<double> heuristic_weights() const;
 
   LoopCorrectorConfig config_;
   std::vector<Eigen::Isometry3d> odometry_;
@@ -139,6 +152,7 @@ class LoopCorrector {
   std::vector<ClosedSpan> closed_spans_;
   PoseIndex max_end_index_ = -1;
   PoseIndex last_graph_index_ = -1;  ///< newest loop end when the graph was last solved online
+  std::vector<PoseIndex> segment_starts_;
 };
 
 }  // namespace loopd

@@ -217,7 +217,8 @@ void fill_chains(const std::vector<Eigen::Isometry3d>& odometry_poses, const std
 PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odometry_poses, const std::vector<double>& residuals,
                                     const std::vector<LoopConstraint>& loops, const std::vector<Eigen::Isometry3d>& initial_guess,
                                     const PoseGraphConfig& config, const std::vector<PlaneObservation>& planes,
-                                    const std::vector<Eigen::Matrix<double, 6, 6>>& odometry_information) {
+                                    const std::vector<Eigen::Matrix<double, 6, 6>>& odometry_information,
+                                    const std::vector<PoseIndex>& segment_starts) {
   Stopwatch watch;
   PoseGraphResult result;
   const std::size_t n = odometry_poses.size();
@@ -235,7 +236,7 @@ PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odomet
 
   const OdometryCovariance odometry_covariance(odometry_poses, residuals, odometry_information, config);
   const std::vector<const LoopConstraint*> loops_in_range = detail::valid_loops(loops, n);
-  const NodeLayout layout = detail::choose_nodes(n, loops_in_range, planes, config);
+  const NodeLayout layout = detail::choose_nodes(n, loops_in_range, planes, config, segment_starts);
 
   std::vector<GraphEdge> edges;
   edges.reserve(layout.anchors.size() + loops_in_range.size());  // one allocation, no doubling copies

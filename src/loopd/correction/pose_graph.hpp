@@ -97,10 +97,13 @@ struct PoseGraphResult {
 /// @brief Builds and solves the pose graph: odometry edges between consecutive keyframes (from odometry_poses, weighted
 /// by residuals), loop edges (robust kernel), optional plane constraints; starts from initial_guess (e.g. the heuristic;
 /// empty -> odometry). odometry_information, when non-empty, gives each edge (i-1, i) its 6x6 information in
-/// (t, r) order at index i and replaces the residual-based one.
+/// (t, r) order at index i and replaces the residual-based one. segment_starts: poses whose step (i-1, i) joins two
+/// odometry segments (sessions) rather than measuring motion; i-1 and i are always solved as nodes, so no loop end or
+/// plane observation is moved across the join (its weak information is given in odometry_information).
 PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odometry_poses, const std::vector<double>& residuals,
                                     const std::vector<LoopConstraint>& loops, const std::vector<Eigen::Isometry3d>& initial_guess,
                                     const PoseGraphConfig& config, const std::vector<PlaneObservation>& planes = {},
-                                    const std::vector<Eigen::Matrix<double, 6, 6>>& odometry_information = {});
+                                    const std::vector<Eigen::Matrix<double, 6, 6>>& odometry_information = {},
+                                    const std::vector<PoseIndex>& segment_starts = {});
 
 }  // namespace loopd

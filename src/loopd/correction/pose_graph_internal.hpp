@@ -39,9 +39,9 @@ struct NodeLayout {
 };
 
 /// @brief Chooses the nodes: the carrying keyframes when they are few (reduce_chains), every loop_end_stride-th
-/// keyframe when loop ends are dense, else every keyframe.
+/// keyframe when loop ends are dense, else every keyframe; both poses of every segment join are always nodes.
 NodeLayout choose_nodes(std::size_t n, const std::vector<const LoopConstraint*>& loops, const std::vector<PlaneObservation>& planes,
-                        const PoseGraphConfig& config);
+                        const PoseGraphConfig& config, const std::vector<PoseIndex>& segment_starts = {});
 
 /// @brief Odometry from keyframe i to its node (identity for a node).
 Eigen::Isometry3d to_node(const std::vector<Eigen::Isometry3d>& odometry_poses, const NodeLayout& layout, std::size_t i);

@@ -39,6 +39,18 @@ std::vector<int> nearest_nodes(const std::vector<int>& anchors, std::size_t n) {
   return nearest_node;
 }
 
+/// @brief Both poses of every segment join (s - 1 and s) as nodes: the nearest node of any keyframe then lies in its
+/// own segment, so nothing is moved through the join's (meaningless) odometry.
+void add_segment_joins(std::vector<int>& anchors, std::size_t n, const std::vector<PoseIndex>& segment_starts) {
+  for (const PoseIndex s : segment_starts) {
+    if (s < 1 || s >= static_cast<PoseIndex>(n)) continue;
+    anchors.push_back(static_cast<int>(s) - 1);
+    anchors.push_back(static_cast<int>(s));
+  }
+  std::sort(anchors.begin(), anchors.end());
+  anchors.erase(std::unique(anchors.begin(), anchors.end()), anchors.end());
+}
+
 }  // namespace
 
 /// @brief Loops whose ends are two different poses among the n (zero-length loops and bad indices carry no information).
@@ -53,7 +65,7 @@ std::vector<const LoopConstraint*> valid_loops(const std::vector<LoopConstraint>
 /// keyframe when loop ends are dense, else every keyframe; with reduce_chains never more than max_nodes (a coarser
 /// stride instead).
 NodeLayout choose_nodes(std::size_t n, const std::vector<const LoopConstraint*>& loops, const std::vector<PlaneObservation>& planes,
-                        const PoseGraphConfig& config) {
+                        const PoseGraphConfig& config, const std::vector<PoseIndex>& segment_starts) {
   NodeLayout layout;
   std::vector<int>& anchors = layout.anchors;
   anchors = carrying_keyframes(n, loops, planes, config);
@@ -80,6 +92,7 @@ NodeLayout choose_nodes(std::size_t n, const std::vector<const LoopConstraint*>&
     anchors.resize(n);
     for (std::size_t i = 0; i < n; ++i) anchors[i] = static_cast<int>(i);
   }
+  if (reduce) add_segment_joins(anchors, n, segment_starts);
   layout.reduce = reduce;
   layout.nearest_node = nearest_nodes(anchors, n);
   return layout;
