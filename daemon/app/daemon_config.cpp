@@ -221,6 +221,31 @@ void bind_stage_configs(Binder& b, LoopDetectorConfig& d) {
   b.field("correction.graph.plane_cell_size", d.plane_cell_size);
 }
 
+/// Global retrieval (the detector's second descriptor) and when sessions open.
+void bind_retrieval_and_sessions(Binder& b, LoopDetectorConfig& d, SessionPolicy& sessions) {
+  GlobalRetrievalConfig& r = d.retrieval;
+  b.field("retrieval.enabled", r.enabled);
+  b.field("retrieval.k", r.retrieval.k);
+  b.field("retrieval.ring_candidates", r.retrieval.ring_candidates);
+  double max_place_distance = r.retrieval.max_place_distance;
+  b.field("retrieval.max_place_distance", max_place_distance);
+  r.retrieval.max_place_distance = static_cast<float>(max_place_distance);
+  b.field("retrieval.max_verified", r.max_verified);
+  b.field("retrieval.min_travel_gap", r.min_travel_gap);
+  b.field("retrieval.confirm_window", r.confirm_window);
+  b.field("retrieval.confirm_translation", r.confirm_translation);
+  b.field("retrieval.confirm_rotation_deg", r.confirm_rotation_deg);
+  b.field("retrieval.descriptor.rings", r.descriptor.num_rings);
+  b.field("retrieval.descriptor.sectors", r.descriptor.num_sectors);
+  double max_range = r.descriptor.max_range, height_offset = r.descriptor.height_offset;
+  b.field("retrieval.descriptor.max_range", max_range);
+  b.field("retrieval.descriptor.height_offset", height_offset);
+  r.descriptor.max_range = static_cast<float>(max_range);
+  r.descriptor.height_offset = static_cast<float>(height_offset);
+  b.choice("sessions.on_odometry_reset", sessions.new_session_on_reset, {{"new_session", true}, {"stitch", false}});
+  b.field("sessions.resume_max_gap", sessions.resume_max_gap);
+}
+
 void bind(Binder& b, DaemonConfig& c) {
   NodeConfig& n = c.node;
   b.field("lcm_url", n.lcm_url);
@@ -271,6 +296,7 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("descriptor.max_candidates", d.max_candidates_per_keyframe);
   b.field("verify.guided_window", d.guided_window);
   bind_stage_configs(b, d);
+  bind_retrieval_and_sessions(b, d, e.sessions);
 }
 
 }  // namespace

@@ -222,8 +222,8 @@ class InputHealthLog {
                    static_cast<long long>(s.scans_lost_estimate), 100.0 * s.scan_loss_fraction);
     }
     report("the data clock jumped; following the new time line", s.clock_jumps, &clock_jumps_, every);
-    report("odometry reset (a jump the vehicle cannot have made); the trajectory continues from the last pose", s.odometry_resets, &odometry_resets_,
-           every);
+    report("odometry reset (a jump the vehicle cannot have made); a new session opens (sessions.on_odometry_reset)", s.odometry_resets,
+           &odometry_resets_, every);
     report("the sensor layout changed (points per scan or rings)", s.sensor_changes, &sensor_changes_, every);
   }
 
@@ -285,7 +285,7 @@ int fault_correction_delay_ms() {
   return v ? std::max(0, std::atoi(v)) : 0;
 }
 
-/// The session this process writes (one per map until sessions arrive): created on a new map.
+/// The map's first session, created on a new map (later sessions are written with their first keyframe, MapWriter).
 bool ensure_session(MapStore& store, const std::string& sensor, const std::string& source) {
   const StoreResult<std::vector<SessionRecord>> sessions = store.sessions();
   StoreStatus status = sessions.status;
@@ -461,7 +461,10 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   MapSession map;
   if (!open_map(node, &map)) return 2;
   OutputSink sink(node, &lcm, nullptr, false);
-  if (map.store) map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n, fault_correction_delay_ms());
+  if (map.store) {
+    map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n, fault_correction_delay_ms());
+    map.writer->set_session_origin(engine_config.detector.sensor, "live " + node.lcm_url);
+  }
   EngineSink* first_sink = map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink;
   const std::unique_ptr<FaultStallSink> stall = fault_stall_sink(*first_sink);
   if (stall) first_sink = stall.get();
@@ -568,7 +571,10 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   EngineConfig config = engine_config;
   config.block_when_full = true;  // replay never sheds: it waits for the workers
   OutputSink sink(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
-  if (map.store) map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n, fault_correction_delay_ms());
+  if (map.store) {
+    map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n, fault_correction_delay_ms());
+    map.writer->set_session_origin(engine_config.detector.sensor, "replay " + input_log);
+  }
   LoopdEngine engine(config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
   if (map.store && node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
   if (!resume_from_map(map, engine, true, engine_config.detector.sensor, "replay " + input_log)) return 2;

@@ -25,6 +25,7 @@ std::optional<std::string> EngineConfig::validate() const {
   if (max_points_per_scan < 1) return "max_points_per_scan must be >= 1";
   if (!(clock_jump > 0.0)) return "input.clock_jump must be > 0 [s]";
   if (!(max_odometry_speed > 0.0)) return "input.max_odometry_speed must be > 0 [m/s]";
+  if (auto e = sessions.validate()) return e;
   return std::nullopt;
 }
 
@@ -36,7 +37,12 @@ LoopdEngine::LoopdEngine(const EngineConfig& config, EngineSink* sink)
       pose_clock_(ClockWatch::Config{config.clock_jump, 2}),
       odometry_filter_(OdometryResetFilter::Config{config.max_odometry_speed, 360.0, 2.0}),
       selector_(config.detector.keyframe),
-      detector_(config.detector) {
+      detector_(config.detector),
+      session_keys_([&config] {
+        SessionPolicy policy = config.sessions;
+        policy.max_speed = config.max_odometry_speed;
+        return policy;
+      }()) {
   int n = config_.num_threads > 0 ? config_.num_threads : static_cast<int>(std::thread::hardware_concurrency());
   if (n < 1) n = 1;
   stats_.device = detector_.descriptor_device();
@@ -102,7 +108,9 @@ bool LoopdEngine::push_pose(const StampedPose& raw, double arrival_s) {
   const bool jumped = verdict == ClockVerdict::kJumpBack || verdict == ClockVerdict::kJumpForward;
   if (verdict == ClockVerdict::kJumpBack) associator_.restart_poses();
   if (jumped) odometry_filter_.forget_last();  // times across a jump cannot be compared
-  const StampedPose pose = odometry_filter_.apply(raw);
+  bool reset = false;
+  const StampedPose pose = odometry_filter_.apply(raw, &reset);
+  if (reset) session_keys_.on_odometry_reset(raw.utime, odometry_filter_.T_continuous_odom());
   loss_.on_pose(pose.utime, jumped);
   update_input_health();
   const bool ok = associator_.add_pose(pose);
@@ -135,15 +143,18 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
   for (auto& s : scans) {
     residual_since_keyframe_ += s.residual_sum;
     if (!selector_.accept(s.pose.T_world_sensor, s.utime)) continue;
-    if (skip_if_stored(s.utime)) {
+    SessionKeys::Assigned assigned = session_keys_.assign(s.utime, s.pose.T_world_sensor);
+    if (!assigned.note.empty() && log_enabled(LogLevel::kInfo)) std::fprintf(stderr, "loopd: %s\n", assigned.note.c_str());
+    if (assigned.stored) {
+      ++keyframes_skipped_;
       residual_since_keyframe_ = 0.0;
       continue;
     }
     Job job;
     job.sequence = next_sequence_++;
-    job.input.key = KeyframeKey{session_, next_keyframe_index_++};
+    job.input.key = assigned.key;
     job.input.utime = s.utime;
-    job.input.T_odom_sensor = s.pose.T_world_sensor;
+    job.input.T_odom_sensor = assigned.T_odom_sensor;
     job.input.residual = residual_since_keyframe_;
     residual_since_keyframe_ = 0.0;
     job.cloud = std::move(s.cloud);
@@ -157,9 +168,7 @@ ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes) {
   const bool thin = features_in_store_ && !config_.detector.correction.graph.use_plane_constraints;
   ResumeSummary r = resume_detector(store, detector_, thin ? KeyframeLoad::kDescriptor : KeyframeLoad::kFull);
   if (!r.ok) return r;
-  next_keyframe_index_ = r.next_index;
-  stored_utimes_ = r.utimes;
-  skip_stored_ = skip_stored_keyframes;
+  session_keys_.restore(r.keys, r.utimes, r.T_odom_newest, skip_stored_keyframes);
   for (const CorrectionOutput& c : r.corrections) sink_->on_correction(c);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
@@ -175,23 +184,6 @@ void LoopdEngine::keep_features_in_store(MapStore& store, std::size_t cache_byte
     if (!read.ok()) return std::nullopt;
     return std::move(read.value);
   });
-}
-
-bool LoopdEngine::skip_if_stored(std::int64_t utime) {
-  // Replay resume: the same drive selects the same keyframes again; the first ones are already in the map.
-  if (!skip_stored_ || next_stored_ >= stored_utimes_.size()) return false;
-  if (stored_utimes_[next_stored_] == utime) {
-    ++next_stored_;
-    ++keyframes_skipped_;
-    return true;
-  }
-  if (log_enabled(LogLevel::kWarn))
-    std::fprintf(stderr,
-                 "loopd: warning: the map's keyframe %zu was made at utime %lld, this drive's at %lld: not the drive the map was made "
-                 "from; its keyframes are added after the map's\n",
-                 next_stored_, static_cast<long long>(stored_utimes_[next_stored_]), static_cast<long long>(utime));
-  skip_stored_ = false;
-  return false;
 }
 
 void LoopdEngine::submit(Job job) {

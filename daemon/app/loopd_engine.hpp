@@ -19,6 +19,7 @@
 #include "odometry_reset_filter.hpp"
 #include "scan_loss_estimator.hpp"
 #include "scan_pose_associator.hpp"
+#include "session_keys.hpp"
 #include "sensor_layout_watch.hpp"
 #include "watchdog.hpp"
 
@@ -35,6 +36,7 @@ struct EngineConfig {
   std::int64_t max_points_per_scan = 2000000;  ///< larger scans are rejected as invalid
   double clock_jump = 2.0;                     ///< [s] data clock vs arrival clock disagreement that is a clock jump (input.clock_jump)
   double max_odometry_speed = 60.0;            ///< [m/s] faster apparent odometry motion is an odometry reset (input.max_odometry_speed)
+  SessionPolicy sessions;                      ///< when a drive or an odometry reset opens a new session (sessions.*)
   std::optional<std::string> validate() const;
 };
 
@@ -117,7 +119,6 @@ class LoopdEngine {
   EngineProgress progress() const;
 
  private:
-  bool skip_if_stored(std::int64_t utime);
   struct Job {
     std::int64_t sequence = 0;  ///< order of submission: the sequential stage takes keyframes in this order
     KeyframeInput input;
@@ -149,12 +150,8 @@ class LoopdEngine {
   SensorLayoutWatch layout_;
   KeyframeSelector selector_;
   LoopDetector detector_;
-  SessionId session_ = 0;  ///< one session per process until the map store brings sessions
-  std::int64_t next_keyframe_index_ = 0;
+  SessionKeys session_keys_;  ///< session and index of each keyframe (ingest thread)
   std::int64_t next_sequence_ = 0;
-  std::vector<std::int64_t> stored_utimes_;  ///< resume: scan times of the stored keyframes, in order
-  std::size_t next_stored_ = 0;              ///< resume: next stored keyframe to recognise
-  bool skip_stored_ = false;
   bool features_in_store_ = false;
   std::atomic<std::int64_t> keyframes_skipped_{0};
   double residual_since_keyframe_ = 0.0;

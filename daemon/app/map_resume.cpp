@@ -82,7 +82,8 @@ ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeL
     detector.restore_keyframe(k.record);
     ++summary.keyframes;
     summary.utimes.push_back(k.record.utime);
-    if (k.record.key.session == 0) summary.next_index = k.record.key.index + 1;
+    summary.keys.push_back(k.record.key);
+    summary.T_odom_newest = k.record.T_odom_sensor;
     failure = restore_decisions(k.record.key, loops, &next_loop, stored, detector, summary);
   });
   if (!read.ok()) failure = read.message;

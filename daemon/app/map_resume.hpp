@@ -12,13 +12,14 @@ namespace loopd {
 /// @brief What resume_detector() restored.
 struct ResumeSummary {
   bool ok = false;
-  std::string error;                   ///< why the map could not be resumed (the map is then left as it was)
-  std::int64_t keyframes = 0;          ///< keyframes restored
-  std::int64_t decisions = 0;          ///< decisions restored
-  std::int64_t dropped_undecided = 0;  ///< keyframes whose decisions were cut off by the stop (made again)
-  std::int64_t revision = 0;           ///< correction revision restored (0: none stored)
-  std::vector<std::int64_t> utimes;    ///< scan time of every restored keyframe, in order
-  std::int64_t next_index = 0;         ///< first free keyframe index of session 0
+  std::string error;                                                ///< why the map could not be resumed (the map is then left as it was)
+  std::int64_t keyframes = 0;                                       ///< keyframes restored
+  std::int64_t decisions = 0;                                       ///< decisions restored
+  std::int64_t dropped_undecided = 0;                               ///< keyframes whose decisions were cut off by the stop (made again)
+  std::int64_t revision = 0;                                        ///< correction revision restored (0: none stored)
+  std::vector<std::int64_t> utimes;                                 ///< scan time of every restored keyframe, in order
+  std::vector<KeyframeKey> keys;                                    ///< key of every restored keyframe, in order
+  Eigen::Isometry3d T_odom_newest = Eigen::Isometry3d::Identity();  ///< odometry pose of the newest restored keyframe
   /// Corrections made again: accepted loops whose correction the stop cut off. The caller stores and publishes them.
   std::vector<CorrectionOutput> corrections;
   double seconds = 0.0;

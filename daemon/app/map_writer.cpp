@@ -36,9 +36,50 @@ void MapWriter::failed(const std::string& what, const StoreStatus& status) {
                  static_cast<long long>(n), what.c_str(), status.message.c_str());
 }
 
+StoreStatus MapWriter::ensure_session(SessionId session, std::int64_t first_utime) {
+  if (!sessions_) {
+    StoreResult<std::vector<SessionRecord>> read = store_.sessions();
+    if (!read.ok()) return read.status;
+    sessions_.emplace();
+    for (SessionRecord& r : read.value) (*sessions_)[r.id] = std::move(r);
+  }
+  const auto it = sessions_->find(session);
+  if (it != sessions_->end() && it->second.first_utime != 0) return {};
+  SessionRecord r;
+  if (it != sessions_->end()) {
+    r = it->second;
+  } else {
+    r.id = session;
+    r.sensor = sensor_;
+    r.source = source_;
+    r.anchored = sessions_->empty();  // the map's first session is the map frame; the others wait for a loop
+  }
+  r.first_utime = first_utime;
+  const StoreStatus s = store_.put_session(r);
+  if (s.ok()) (*sessions_)[session] = r;
+  return s;
+}
+
+StoreStatus MapWriter::put_alignments(const std::vector<SessionAlignment>& alignments) {
+  if (!sessions_) return {};
+  for (const SessionAlignment& a : alignments) {
+    const auto it = sessions_->find(a.session);
+    if (it == sessions_->end()) continue;
+    SessionRecord r = it->second;
+    r.anchored = a.anchored;
+    r.T_map_session = a.T_map_session;
+    if (r.anchored == it->second.anchored && r.T_map_session.isApprox(it->second.T_map_session, 1e-12)) continue;
+    if (StoreStatus s = store_.put_session(r); !s.ok()) return s;
+    it->second = r;
+  }
+  return {};
+}
+
 void MapWriter::on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor) {
   decided_with_correction_ = false;
   if (stopped_) return failed("keyframe " + to_string(keyframe.key), stopped_status());
+  if (const StoreStatus s = retry_busy([&] { return ensure_session(keyframe.key.session, keyframe.utime); }); !s.ok())
+    return failed("session " + std::to_string(keyframe.key.session), s);
   const StoreStatus s = retry_busy([&] { return store_.put_keyframe(MapKeyframe{keyframe, T_map_sensor}); });
   if (!s.ok()) return failed("keyframe " + to_string(keyframe.key), s);
   std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -65,6 +106,7 @@ void MapWriter::on_correction(const CorrectionOutput& correction) {
     StoreStatus s = store_.begin();
     if (!s.ok()) return s;
     s = store_.put_correction(record);
+    if (s.ok()) s = put_alignments(correction.sessions);
     if (s.ok() && !correction.keys.empty()) s = store_.mark_decided(correction.keys.back());
     if (s.ok()) s = store_.commit();
     if (!s.ok()) store_.rollback();

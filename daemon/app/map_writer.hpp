@@ -1,7 +1,9 @@
 #pragma once
 /// @file Commits what the engine makes to the map store before the next sink publishes it.
 #include <cstdint>
+#include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include "loopd/map/map_store.hpp"
@@ -35,8 +37,17 @@ class MapWriter : public EngineSink {
   void on_correction(const CorrectionOutput& correction) override;
   void on_keyframe_decided(const KeyframeKey& keyframe) override;
   MapWriterStats stats() const;
+  /// @brief What a session this run opens is recorded with (lidar preset, "replay drive.lcmlog" / "live udpm://...").
+  void set_session_origin(std::string sensor, std::string source) {
+    sensor_ = std::move(sensor);
+    source_ = std::move(source);
+  }
 
  private:
+  /// @brief The session row of a keyframe's session exists (written with its first keyframe's time when new).
+  StoreStatus ensure_session(SessionId session, std::int64_t first_utime);
+  /// @brief The sessions' alignment and anchoring of a correction, written into their rows (inside its transaction).
+  StoreStatus put_alignments(const std::vector<SessionAlignment>& alignments);
   void failed(const std::string& what, const StoreStatus& status);
   static StoreStatus stopped_status();
   /// @brief `write()`, tried again after a pause while the store answers kBusy; the last status.
@@ -49,6 +60,8 @@ class MapWriter : public EngineSink {
   int correction_delay_ms_;
   bool decided_with_correction_ = false;  ///< the correction's transaction already marked the keyframe decided
   bool stopped_ = false;                  ///< a write was refused: nothing more is written
+  std::string sensor_, source_;
+  std::optional<std::map<SessionId, SessionRecord>> sessions_;  ///< the store's session rows (read at the first keyframe)
   mutable std::mutex stats_mutex_;
   MapWriterStats stats_;
 };

@@ -33,6 +33,10 @@ loop_event_t to_message(const LoopDecision& d, std::int64_t utime) {
   m.ms_gicp = d.ms_gicp;
   m.ms_hungarian = d.ms_hungarian;
   m.ms_total = d.ms_total;
+  m.query_session = d.query.session;
+  m.match_session = d.match.session;
+  m.retrieval = d.retrieval;
+  m.place_distance = d.place_distance;
   return m;
 }
 
@@ -46,6 +50,15 @@ trajectory_t to_message_header(const CorrectionOutput& c, std::int64_t utime) {
   m.num_keyframes = 0;
   m.full = false;
   m.total_keyframes = static_cast<std::int64_t>(c.T_map_sensor.size());
+  for (const SessionAlignment& a : c.sessions) {
+    session_alignment_t sa{};
+    sa.session = a.session;
+    sa.anchored = a.anchored;
+    to_row_major(a.T_map_session, sa.T_map_session);
+    sa.num_keyframes = a.num_keyframes;
+    m.sessions.push_back(sa);
+  }
+  m.num_sessions = static_cast<std::int32_t>(m.sessions.size());
   return m;
 }
 
@@ -67,9 +80,12 @@ trajectory_t to_message(const CorrectionOutput& c, std::int64_t utime) {
   trajectory_t m = to_message_header(c, utime);
   m.num_keyframes = static_cast<int32_t>(c.T_map_sensor.size());
   m.keyframes.resize(c.T_map_sensor.size());
-  for (std::size_t i = 0; i < c.T_map_sensor.size(); ++i)
+  m.keyframe_sessions.resize(c.T_map_sensor.size());
+  for (std::size_t i = 0; i < c.T_map_sensor.size(); ++i) {
     m.keyframes[i] = to_keyframe_pose(i < c.keys.size() ? c.keys[i].index : static_cast<std::int64_t>(i), i < c.utimes.size() ? c.utimes[i] : 0,
                                       c.T_map_sensor[i]);
+    m.keyframe_sessions[i] = i < c.keys.size() ? c.keys[i].session : 0;
+  }
   m.full = true;
   return m;
 }

@@ -43,6 +43,7 @@ trajectory_t TrajectoryPublisher::build(const CorrectionOutput& c, std::int64_t 
     if (!full && !moved(i, c.T_map_sensor[i])) continue;
     const KeyframeKey key = i < c.keys.size() ? c.keys[i] : KeyframeKey{0, static_cast<std::int64_t>(i)};
     m.keyframes.push_back(to_keyframe_pose(key.index, i < c.utimes.size() ? c.utimes[i] : 0, c.T_map_sensor[i]));
+    m.keyframe_sessions.push_back(key.session);
     if (i < published_poses_.size()) {
       published_poses_[i] = c.T_map_sensor[i];
     } else {
@@ -69,6 +70,7 @@ trajectory_t TrajectoryPublisher::make_message(const CorrectionOutput& correctio
   last_.utimes = correction.utimes;
   last_.T_map_sensor = correction.T_map_sensor;
   last_.T_map_odom = correction.T_map_odom;
+  last_.sessions = correction.sessions;
   return build(correction, utime, snapshot_due(correction, utime));
 }
 

@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "loopd/descriptor/scan_context.hpp"
 #include "loopd/keyframe/keyframe_key.hpp"
 #include "loopd/keyframe/prepared_scan.hpp"
 
@@ -18,6 +19,7 @@ struct KeyframeFeatures {
   bool ok = false;
   std::string error;               ///< why the scan is unusable (ok = false)
   Eigen::VectorXf descriptor;      ///< M2DP signature
+  PlaceDescriptor place;           ///< Scan Context (global retrieval; ok = false when not computed)
   PreparedScan prepared;           ///< voxel cloud, normals, segmentation
   double ms_descriptor = 0.0;      ///< [ms]
   double ms_prepare = 0.0;         ///< [ms]
@@ -27,7 +29,10 @@ struct KeyframeFeatures {
   bool prepared_in_store = false;
 
   /// @brief Heap + object footprint [bytes] of the descriptor and the prepared scan.
-  std::size_t bytes() const { return prepared.bytes() + static_cast<std::size_t>(descriptor.size()) * sizeof(float); }
+  std::size_t bytes() const {
+    return prepared.bytes() + static_cast<std::size_t>(descriptor.size()) * sizeof(float) + place.bins.size() +
+           (place.ring_key.size() + place.column_norms.size()) * sizeof(float);
+  }
 };
 
 /// @brief A keyframe: its name, its odometry pose and its features (null when it was shed under load: the pose still

@@ -184,6 +184,7 @@ CREATE TABLE keyframes (
   ms_prepare REAL,
   descriptor BLOB,
   features BLOB,
+  place BLOB,
   PRIMARY KEY (session, idx)
 );
 CREATE INDEX keyframes_undecided ON keyframes (session, idx) WHERE decided = 0;
@@ -220,7 +221,7 @@ CREATE TABLE correction (
 // the features blob's overflow pages).
 #define LOOPD_KEYFRAME_COLUMNS                                                                                                       \
   "session, idx, utime, T_odom_sensor, T_map_sensor, residual, travelled, has_features, features_ok, features_error, input_points, " \
-  "invalid_points, ms_descriptor, ms_prepare, descriptor"
+  "invalid_points, ms_descriptor, ms_prepare, descriptor, place"
 
 /// @brief The SQLite map: one connection, its cached statements, and the file name for messages.
 class SqliteMapStore final : public MapStore {
@@ -300,7 +301,7 @@ const char* sql_of(int s) {
        "ON CONFLICT (id) DO UPDATE SET first_utime = excluded.first_utime, sensor = excluded.sensor, source = excluded.source, "
        "T_map_session = excluded.T_map_session, anchored = excluded.anchored"),
       "SELECT id, first_utime, sensor, source, T_map_session, anchored FROM sessions ORDER BY id",
-      "INSERT INTO keyframes (" LOOPD_KEYFRAME_COLUMNS ", features) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+      "INSERT INTO keyframes (" LOOPD_KEYFRAME_COLUMNS ", features) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
       "SELECT " LOOPD_KEYFRAME_COLUMNS " FROM keyframes WHERE ?1 IS NULL OR session = ?1 ORDER BY session, idx",
       "SELECT " LOOPD_KEYFRAME_COLUMNS ", features FROM keyframes WHERE ?1 IS NULL OR session = ?1 ORDER BY session, idx",
       "SELECT has_features, features FROM keyframes WHERE session = ? AND idx = ?",
@@ -335,6 +336,10 @@ StoreStatus SqliteMapStore::create_or_check_schema() {
   const auto version = scalar("PRAGMA user_version", "read the schema version");
   if (!version.ok()) return version.status;
   if (version.value == kSqliteMapSchemaVersion) return {};
+  if (version.value == 1 && sqlite3_db_readonly(db_, "main") != 1) {
+    // Version 1 -> 2: the place descriptor column (keyframes stored before it have none: not found by global retrieval).
+    return exec("BEGIN IMMEDIATE; ALTER TABLE keyframes ADD COLUMN place BLOB; PRAGMA user_version = 2; COMMIT;", "upgrade the schema 1 -> 2");
+  }
   if (version.value != 0) {
     return {Code::kCorrupt, "map " + path_ + " has schema version " + std::to_string(version.value) + ", this loopd reads " +
                                 std::to_string(kSqliteMapSchemaVersion)};
@@ -423,9 +428,14 @@ StoreStatus SqliteMapStore::put_keyframe(const MapKeyframe& keyframe) {
   use.f64(r.residual).f64(r.travelled).i64(f ? 1 : 0);
   if (f) {
     use.i64(f->ok ? 1 : 0).text(f->error).i64(static_cast<std::int64_t>(f->input_points)).i64(static_cast<std::int64_t>(f->invalid_points));
-    use.f64(f->ms_descriptor).f64(f->ms_prepare).blob(encode_descriptor(f->descriptor)).blob(encode_features(*f));
+    use.f64(f->ms_descriptor).f64(f->ms_prepare).blob(encode_descriptor(f->descriptor));
+    if (f->place.ok)
+      use.blob(encode_place_descriptor(f->place));
+    else
+      use.null();
+    use.blob(encode_features(*f));
   } else {
-    use.i64(0).text("").i64(0).i64(0).f64(0.0).f64(0.0).null().null();
+    use.i64(0).text("").i64(0).i64(0).f64(0.0).f64(0.0).null().null().null();
   }
   return done(use, "put keyframe " + to_string(r.key));
 }
@@ -447,7 +457,7 @@ StoreStatus SqliteMapStore::read_keyframe(const Use& row, KeyframeLoad load, Map
   auto f = std::make_shared<KeyframeFeatures>();
   if (load == KeyframeLoad::kFull) {
     std::size_t n = 0;
-    const std::uint8_t* blob = row.blob_at(15, n);
+    const std::uint8_t* blob = row.blob_at(16, n);
     DecodedFeatures decoded = decode_features(blob, n);
     if (!decoded.ok) return corrupt("keyframe " + to_string(r.key) + ": " + decoded.error);
     *f = std::move(decoded.features);
@@ -464,6 +474,12 @@ StoreStatus SqliteMapStore::read_keyframe(const Use& row, KeyframeLoad load, Map
   DecodedDescriptor descriptor = decode_descriptor(desc, n);
   if (!descriptor.ok) return corrupt("keyframe " + to_string(r.key) + ": " + descriptor.error);
   f->descriptor = std::move(descriptor.descriptor);
+  const std::uint8_t* place = row.blob_at(15, n);
+  if (place && n > 0) {  // NULL: written before the place descriptor existed (schema 1) or not computed
+    DecodedPlaceDescriptor decoded = decode_place_descriptor(place, n);
+    if (!decoded.ok) return corrupt("keyframe " + to_string(r.key) + ": " + decoded.error);
+    f->place = std::move(decoded.descriptor);
+  }
   r.features = std::move(f);
   return {};
 }

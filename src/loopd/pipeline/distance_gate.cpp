@@ -54,7 +54,8 @@ void DistanceGate::rebuild() {
   for (std::size_t i = 0; i < entries_.size(); ++i) cells_[key(entries_[i].position)].push_back(i);
 }
 
-std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, double radius) const {
+std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, double radius,
+                                                    const std::function<bool(const KeyframeKey&)>& accept) const {
   std::vector<GateCandidate> out;
   const double cell = config_.max_radius;
   const std::int64_t cx = static_cast<std::int64_t>(std::floor(query.position.x() / cell));
@@ -65,10 +66,11 @@ std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, doub
       if (it == cells_.end()) continue;
       for (std::size_t i : it->second) {
         const GateEntry& e = entries_[i];
-        if (keyframes_between(e.key, query.key) < config_.min_index_gap) continue;
-        if (query.travelled - e.travelled < config_.min_travel_gap) continue;
+        const bool same_session = e.key.session == query.key.session;
+        if (same_session && keyframes_between(e.key, query.key) < config_.min_index_gap) continue;
+        if (same_session && query.travelled - e.travelled < config_.min_travel_gap) continue;
         const double d = (e.position - query.position).norm();
-        if (d <= radius) out.push_back({e.key, d});
+        if (d <= radius && (!accept || accept(e.key))) out.push_back({e.key, d});
       }
     }
   }

@@ -49,8 +49,9 @@ class DistanceGate {
   void add(const GateEntry& entry);
   /// @brief Replaces every stored position with position_of(key) (after a loop correction).
   void update_positions(const std::function<Eigen::Vector3d(const KeyframeKey&)>& position_of);
-  /// @brief Keyframes within `radius` of `query` that satisfy the index and travel gaps, nearest first.
-  std::vector<GateCandidate> candidates(const GateEntry& query, double radius) const;
+  /// @brief Keyframes within `radius` of `query` that satisfy the index and travel gaps (within one session) and
+  /// `accept` (empty: all), nearest first.
+  std::vector<GateCandidate> candidates(const GateEntry& query, double radius, const std::function<bool(const KeyframeKey&)>& accept = {}) const;
   std::size_t size() const { return entries_.size(); }
 
  private:

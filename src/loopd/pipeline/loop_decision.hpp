@@ -18,10 +18,12 @@ struct LoopDecision {
   KeyframeKey query, match;
   std::int64_t query_utime = 0, match_utime = 0;  ///< [us]
   LoopStatus status = LoopStatus::kCandidate;
-  std::string stage;  ///< gate, descriptor, fourpcs, gicp, degeneracy, hungarian, accepted
+  std::string stage;  ///< gate, descriptor, fourpcs, gicp, degeneracy, hungarian, confirmation, session, accepted
   std::string reason;
   double gate_distance = 0.0, gate_radius = 0.0, descriptor_distance = -1.0;
   double lcp_fraction = -1.0, icp_residual = -1.0, icp_fitness = -1.0, hungarian_consistency = -1.0, degeneracy = -1.0;
+  std::string retrieval = "gate";  ///< gate (the distance gate's candidates) or global (place retrieval, no pose prior)
+  double place_distance = -1.0;    ///< Scan Context distance of a global candidate (-1: not used)
   Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
   Information6d information = Information6d::Zero();  ///< of T_match_query (verification's GICP Hessian); not published
   double ms_descriptor = 0.0, ms_fourpcs = 0.0, ms_gicp = 0.0, ms_hungarian = 0.0, ms_total = 0.0;

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <future>
+#include <map>
 
 #include "loopd/core/cloud_ops.hpp"
 #include "loopd/core/stopwatch.hpp"
@@ -20,6 +22,7 @@ std::optional<std::string> LoopDetectorConfig::validate() const {
   if (max_candidates_per_keyframe < 1) return "max_candidates_per_keyframe must be >= 1";
   if (guided_window < 0) return "guided_window must be >= 0";
   if (!(plane_cell_size >= 1e-3)) return "plane_cell_size must be >= 0.001 [m]";  // cell indices stay in int64 range
+  if (auto e = retrieval.validate()) return e;
   return std::nullopt;
 }
 
@@ -28,7 +31,8 @@ LoopDetector::LoopDetector(const LoopDetectorConfig& config)
       model_(lidar_model_from_name(config.sensor)),
       m2dp_(std::make_unique<M2dp>(config.m2dp)),
       gate_(config.gate),
-      corrector_(config.correction) {}
+      corrector_(config.correction),
+      confirmation_(config.retrieval) {}
 
 LoopDetector::~LoopDetector() = default;
 
@@ -54,6 +58,8 @@ KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
     return f;
   }
   f.descriptor = std::move(d.descriptor);
+  if (config_.retrieval.enabled) f.place = compute_place_descriptor(clean, config_.retrieval.descriptor);
+  f.ms_descriptor = sw.ms();
   sw.reset();
   f.prepared = prepare_scan(clean, model_ ? &*model_ : nullptr, config_.prepare);
   f.ms_prepare = sw.ms();
@@ -141,9 +147,11 @@ const KeyframeRecord& LoopDetector::place_keyframe(const KeyframeInput& input, s
   record.travelled = travelled_;
   record.features = std::move(features);
   if (record.features && config_.correction.graph.use_plane_constraints) add_ground_plane(record, T_map_query);
-  if (cache_ && record.features && !record.features->prepared_in_store) {
-    // The map store holds the prepared scan: memory keeps the descriptor, the cache the newest full features.
-    cache_->put(record.key, record.features);
+  // The place index keeps the place descriptor (the query itself is never its own candidate: index gap).
+  const bool indexed = config_.retrieval.enabled && record.features && record.features->place.ok && places_.add(record.key, record.features->place);
+  if (cache_ && record.features && (!record.features->prepared_in_store || indexed)) {
+    // The map store holds the prepared scan: memory keeps the M2DP descriptor, the cache the newest full features.
+    if (!record.features->prepared_in_store) cache_->put(record.key, record.features);
     auto thin = std::make_shared<KeyframeFeatures>();
     thin->ok = record.features->ok;
     thin->error = record.features->error;
@@ -216,6 +224,7 @@ std::optional<CorrectionOutput> LoopDetector::close_loop(const KeyframeRecord& q
   const std::optional<std::string> refused = corrector_.check_loop(loop);
   if (refused) decision.reason = "accepted, but the correction refused the loop: " + *refused;
   const std::int64_t event_id = decision.event_id;
+  if (!refused) sessions_.tie(query.key.session, match.match->key.session);
   report(std::move(decision), out, on_decided);  // before the correction: the event need not wait for the pose graph
   ++loops_accepted_;
   last_accepted_ = query.key;
@@ -234,7 +243,8 @@ CorrectionOutput LoopDetector::correction_output(const CorrectionResult& result,
   c.loop_event_id = loop_event_id;
   c.method = to_string(result.method);
   c.graph_solved = result.graph_solved;
-  c.T_map_odom = corrector_.T_map_odom();
+  c.T_map_odom = T_map_odom();
+  c.sessions = session_alignments();
   c.resume_state = corrector_.resume_state();
   const std::vector<Eigen::Isometry3d>& corrected = corrector_.corrected_poses();
   c.keys.reserve(keyframes_.size());
@@ -249,14 +259,128 @@ CorrectionOutput LoopDetector::correction_output(const CorrectionResult& result,
   return c;
 }
 
+Eigen::Isometry3d LoopDetector::enter_pose_sequence(const KeyframeInput& input) {
+  // One pose sequence for every session: a new session is stitched on where the last keyframe lay (SessionFrames) and
+  // its join carries no odometry, so only loops place it.
+  const bool first = corrector_.size() == 0;
+  const Eigen::Isometry3d T_previous = first ? Eigen::Isometry3d::Identity() : corrector_.odometry_poses().back();
+  const SessionFrames::Placed placed = sessions_.place(input.key, input.T_odom_sensor);
+  if (placed.starts_segment) {
+    travelled_at_last_loop_ = travelled_;  // the new session's drift starts with it
+    pose_index_[input.key] = corrector_.add_segment_start(placed.T_continuous_sensor);
+  } else {
+    if (!first) travelled_ += (T_previous.inverse() * placed.T_continuous_sensor).translation().norm();
+    pose_index_[input.key] = corrector_.add_keyframe(placed.T_continuous_sensor, input.residual);
+  }
+  return corrector_.corrected_poses().back();
+}
+
+LoopDetector::GatedOutcome LoopDetector::close_gated(const KeyframeRecord& query, const Eigen::Isometry3d& T_map_query, DetectorOutput& out,
+                                                     const DecisionCallback& on_decided) {
+  // Sec. 4 and 4.1: keyframes within the gate radius (10 % of the travel since the last loop), by M2DP distance; only
+  // sessions tied to the query's share its frame.
+  GatedOutcome g;
+  g.radius = gate_.radius(travelled_ - travelled_at_last_loop_);
+  const GateEntry here{query.key, T_map_query.translation(), travelled_};
+  g.gated = gate_.candidates(here, g.radius, [&](const KeyframeKey& k) { return sessions_.tied(k.session, query.key.session); });
+  const std::vector<RankedCandidate> ranked = rank_by_descriptor(g.gated, query.features->descriptor, keyframes_);
+  const std::size_t count = count_to_verify(ranked, config_.max_descriptor_distance, config_.max_candidates_per_keyframe);
+  if (count == 0 && !ranked.empty()) report_descriptor_rejection(query, ranked.front(), g.radius, out, on_decided);
+  // Sec. 4.2-4.3: verify best first; the first accepted candidate closes the loop and (Sec. 4.4) corrects the map.
+  CandidateVerifications verifications = start_verifications(query, ranked, count, T_map_query);
+  for (std::size_t i = 0; i < count; ++i) {
+    LoopDecision d = make_decision(query, ranked[i], g.radius);
+    const VerifyResult v = verifications.get(i);
+    apply_verification(v, query.features->ms_descriptor, d);
+    if (v.accepted) {
+      out.correction = close_loop(query, ranked[i], v, std::move(d), out, on_decided);
+      g.accepted = true;
+      confirmation_.clear();
+      break;
+    }
+    report(std::move(d), out, on_decided);
+    ++loops_rejected_;
+  }
+  return g;
+}
+
+std::function<bool(const KeyframeKey&)> LoopDetector::prior_free_filter(const KeyframeRecord& query, const GatedOutcome& gated) const {
+  // Not the gate's own candidates; of the query's session only keyframes far back along the drive; of another session
+  // any keyframe the query's session may be tied to.
+  return [this, &query, &gated](const KeyframeKey& k) {
+    for (const GateCandidate& c : gated.gated)
+      if (c.key == k) return false;
+    if (k.session == query.key.session) {
+      const KeyframeRecord* r = keyframes_.find(k);
+      return r && keyframes_between(k, query.key) >= config_.gate.min_index_gap && query.travelled - r->travelled >= config_.retrieval.min_travel_gap;
+    }
+    return !sessions_.cannot_tie(query.key.session, k.session);
+  };
+}
+
+void LoopDetector::close_prior_free(const KeyframeRecord& query, const Eigen::Isometry3d& T_map_query, const GatedOutcome& gated, DetectorOutput& out,
+                                    const DecisionCallback& on_decided) {
+  const std::shared_ptr<const KeyframeFeatures> query_features = full_features(query);
+  if (!query_features || !query_features->place.ok) return;
+  const std::vector<PlaceCandidate> places = places_.query(query_features->place, config_.retrieval.retrieval, prior_free_filter(query, gated));
+  const std::size_t count = std::min(places.size(), static_cast<std::size_t>(config_.retrieval.max_verified));
+  for (std::size_t i = 0; i < count; ++i) {
+    const KeyframeRecord* match = keyframes_.find(places[i].key);
+    if (!match || !match->features) continue;
+    RankedCandidate candidate{match, (corrected(match->key).translation() - T_map_query.translation()).norm(),
+                              (match->features->descriptor - query.features->descriptor).norm()};
+    LoopDecision d = make_decision(query, candidate, gated.radius);
+    d.retrieval = "global";
+    d.place_distance = places[i].place_distance;
+    // The full verification, no guess from the map: nothing is known about where the query lies.
+    const std::shared_ptr<const KeyframeFeatures> match_features = full_features(*match);
+    VerifyResult v;
+    if (match_features)
+      v = verify_candidate(query_features->prepared, match_features->prepared, std::nullopt, config_.verify);
+    else
+      v.reason = "the keyframe's features could not be read back from the map store";
+    apply_verification(v, query.features->ms_descriptor, d);
+    if (v.accepted && confirm_prior_free(query, *match, v, T_map_query, d)) {
+      out.correction = close_loop(query, candidate, v, std::move(d), out, on_decided);
+      return;
+    }
+    report(std::move(d), out, on_decided);
+    ++loops_rejected_;
+    if (v.accepted) return;  // held for confirmation: the next keyframes decide
+  }
+}
+
+bool LoopDetector::confirm_prior_free(const KeyframeRecord& query, const KeyframeRecord& match, const VerifyResult& verification,
+                                      const Eigen::Isometry3d& T_map_query, LoopDecision& decision) {
+  // The stricter test: a loop of one of the next keyframes must imply the same placement of the query's session.
+  PriorFreeLoop loop;
+  loop.query = query.key;
+  loop.match_group = sessions_.group(match.key.session);
+  loop.correction = corrected(match.key) * verification.T_match_query * T_map_query.inverse();
+  loop.p_map_query = T_map_query.translation();
+  loop.event_id = decision.event_id;
+  const std::optional<PriorFreeLoop> agreed = confirmation_.confirm(loop);
+  if (agreed) {
+    const auto [translation, rotation] = PriorFreeConfirmation::disagreement(*agreed, loop);
+    char why[160];
+    std::snprintf(why, sizeof why, "prior-free loop confirmed by event %lld (keyframe %s): the placements agree within %.3f m / %.2f deg",
+                  static_cast<long long>(agreed->event_id), to_string(agreed->query).c_str(), translation, rotation);
+    decision.reason = why;
+    return true;
+  }
+  decision.status = LoopStatus::kRejected;
+  decision.stage = "confirmation";
+  decision.reason = "verified without a pose prior; links nothing until a loop of one of the next " +
+                    std::to_string(config_.retrieval.confirm_window) + " keyframes agrees";
+  return false;
+}
+
 DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
                                           const DecisionCallback& on_decided,
                                           const std::function<void(const KeyframeRecord&, const Eigen::Isometry3d&)>& on_placed) {
   // Vlaminck 2019 Sec. 4: the keyframe enters the map where the corrected odometry puts it.
-  if (!keyframes_.empty()) travelled_ += (keyframes_.newest().T_odom_sensor.inverse() * input.T_odom_sensor).translation().norm();
   if (features && !features->ok) features.reset();
-  pose_index_[input.key] = corrector_.add_keyframe(input.T_odom_sensor, input.residual);
-  const Eigen::Isometry3d T_map_query = corrector_.T_map_odom() * input.T_odom_sensor;
+  const Eigen::Isometry3d T_map_query = enter_pose_sequence(input);
   const KeyframeRecord& query = place_keyframe(input, std::move(features), T_map_query);
   if (on_placed) {
     KeyframeRecord placed = query;  // with its full features: what a store must keep even when memory keeps less
@@ -266,34 +390,26 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
 
   DetectorOutput out;
   if (query.features) {
-    // Sec. 4 and 4.1: keyframes within the gate radius (10 % of the travel since the last loop), by M2DP distance.
-    const double radius = gate_.radius(travelled_ - travelled_at_last_loop_);
-    const GateEntry here{query.key, T_map_query.translation(), travelled_};
-    const std::vector<RankedCandidate> ranked = rank_by_descriptor(gate_.candidates(here, radius), query.features->descriptor, keyframes_);
-    const std::size_t count = count_to_verify(ranked, config_.max_descriptor_distance, config_.max_candidates_per_keyframe);
-    if (count == 0 && !ranked.empty()) report_descriptor_rejection(query, ranked.front(), radius, out, on_decided);
-    // Sec. 4.2-4.3: verify best first; the first accepted candidate closes the loop and (Sec. 4.4) corrects the map.
-    CandidateVerifications verifications = start_verifications(query, ranked, count, T_map_query);
-    for (std::size_t i = 0; i < count; ++i) {
-      LoopDecision d = make_decision(query, ranked[i], radius);
-      const VerifyResult v = verifications.get(i);
-      apply_verification(v, query.features->ms_descriptor, d);
-      if (v.accepted) {
-        out.correction = close_loop(query, ranked[i], v, std::move(d), out, on_decided);
-        break;
-      }
-      report(std::move(d), out, on_decided);
-      ++loops_rejected_;
-    }
+    // Sec. 4-4.4: the gate's candidates, verified best first; the first accepted one corrects the map.
+    const GatedOutcome gated = close_gated(query, T_map_query, out, on_decided);
+    // Without a pose prior: every stored keyframe by its place descriptor, fully verified, and confirmed by the next keyframes.
+    if (!gated.accepted && config_.retrieval.enabled) close_prior_free(query, T_map_query, gated, out, on_decided);
   }
   gate_.add({query.key, T_map_query.translation(), travelled_});
-  if (out.correction)
-    gate_.update_positions(
-        [this](const KeyframeKey& k) { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(k))].translation(); });
+  if (out.correction) gate_.update_positions([this](const KeyframeKey& k) { return corrected(k).translation(); });
   return out;
 }
 
-Eigen::Isometry3d LoopDetector::T_map_odom() const { return corrector_.T_map_odom(); }
+Eigen::Isometry3d LoopDetector::T_map_odom() const {
+  const std::optional<SessionId> session = sessions_.current();
+  return corrector_.T_map_odom() * (session ? sessions_.T_continuous_odom(*session) : Eigen::Isometry3d::Identity());
+}
+
+std::vector<SessionAlignment> LoopDetector::session_alignments() const {
+  std::map<SessionId, Eigen::Isometry3d> T_map_newest;
+  for (const auto& [session, newest] : sessions_.newest()) T_map_newest[session] = corrected(newest.first);
+  return sessions_.alignments(T_map_newest);
+}
 std::size_t LoopDetector::num_keyframes() const { return keyframes_.size(); }
 std::size_t LoopDetector::bytes_per_keyframe() const { return keyframes_.bytes_per_keyframe(); }
 std::string LoopDetector::descriptor_device() const { return m2dp_->device_name(); }

@@ -18,10 +18,13 @@
 #include "loopd/pipeline/candidate_ranking.hpp"
 #include "loopd/pipeline/distance_gate.hpp"
 #include "loopd/pipeline/feature_cache.hpp"
+#include "loopd/pipeline/global_loops.hpp"
 #include "loopd/pipeline/keyframe_database.hpp"
 #include "loopd/pipeline/keyframe_selector.hpp"
 #include "loopd/pipeline/loop_decision.hpp"
 #include "loopd/pipeline/prepare_scan.hpp"
+#include "loopd/pipeline/session_frames.hpp"
+#include "loopd/retrieval/place_index.hpp"
 #include "loopd/verify/verify.hpp"
 
 namespace loopd {
@@ -57,6 +60,9 @@ struct LoopDetectorConfig {
   /// observe one roadway plane node (Ren 2019, Sec. 3.4.2); a town's ground is only locally planar.
   double plane_cell_size = 40.0;
   LoopCorrectorConfig correction;  ///< Vlaminck 2019 Sec. 4.4 / Ren 2019 Sec. 3.4.3
+  /// Loops without a pose prior (across sessions, after odometry resets, beyond the gate); enabled = false keeps the
+  /// paper's gate-only pipeline.
+  GlobalRetrievalConfig retrieval;
   std::optional<std::string> validate() const;
 };
 
@@ -73,12 +79,13 @@ struct CorrectionOutput {
   std::int64_t revision = 0;
   std::int64_t loop_event_id = 0;
   std::string method;
-  bool graph_solved = false;                    ///< a pose-graph solve made this revision (its memory was just freed)
-  std::vector<KeyframeKey> keys;                ///< every keyframe, in the order they were added
-  std::vector<std::int64_t> utimes;             ///< [us] by keys
-  std::vector<Eigen::Isometry3d> T_map_sensor;  ///< corrected poses, by keys
-  Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();
-  CorrectorResumeState resume_state;  ///< what a map store keeps to resume correcting from this revision
+  bool graph_solved = false;                                     ///< a pose-graph solve made this revision (its memory was just freed)
+  std::vector<KeyframeKey> keys;                                 ///< every keyframe, in the order they were added
+  std::vector<std::int64_t> utimes;                              ///< [us] by keys
+  std::vector<Eigen::Isometry3d> T_map_sensor;                   ///< corrected poses, by keys
+  Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();  ///< of the newest keyframe's session
+  std::vector<SessionAlignment> sessions;                        ///< every session, by id
+  CorrectorResumeState resume_state;                             ///< what a map store keeps to resume correcting from this revision
   double ms = 0.0;
 };
 
@@ -89,7 +96,8 @@ struct DetectorOutput {
 };
 
 /// @brief Loop detection and correction over a stream of keyframes (Vlaminck 2019, Fig. 1):
-///        distance gate -> M2DP ranking -> 4PCS -> GICP -> Hungarian -> correction.
+///        distance gate -> M2DP ranking -> 4PCS -> GICP -> Hungarian -> correction, and (without a pose prior) place
+///        retrieval over every keyframe -> the same verification -> agreement of the next keyframes -> correction.
 ///        compute_features() is thread-safe and may run on many workers; add_keyframe() must be called
 ///        in keyframe order from one thread at a time.
 class LoopDetector {
@@ -136,8 +144,12 @@ class LoopDetector {
   /// @brief Bytes of full keyframe features in the cache (0 without keep_features_in_store).
   std::size_t cached_feature_bytes() const;
 
-  /// @brief Corrected pose of an odometry pose received after the newest keyframe.
+  /// @brief Corrected pose of an odometry pose received after the newest keyframe (in its session's frame).
   Eigen::Isometry3d T_map_odom() const;
+  /// @brief Where every session lies in the map now.
+  std::vector<SessionAlignment> session_alignments() const;
+  /// @brief Keyframes in the place index (global retrieval).
+  std::size_t indexed_places() const { return places_.size(); }
   std::size_t num_keyframes() const;
   std::int64_t loops_accepted() const { return loops_accepted_; }
   std::int64_t loops_rejected() const { return loops_rejected_; }
@@ -151,7 +163,21 @@ class LoopDetector {
   const KeyframeRecord& place_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
                                        const Eigen::Isometry3d& T_map_query);
   void add_ground_plane(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_query);
+  Eigen::Isometry3d enter_pose_sequence(const KeyframeInput& input);
   LoopDecision make_decision(const KeyframeRecord& query, const RankedCandidate& candidate, double radius);
+  struct GatedOutcome {
+    std::vector<GateCandidate> gated;  ///< every keyframe the gate let through
+    double radius = 0.0;
+    bool accepted = false;
+  };
+  GatedOutcome close_gated(const KeyframeRecord& query, const Eigen::Isometry3d& T_map_query, DetectorOutput& out,
+                           const DecisionCallback& on_decided);
+  void close_prior_free(const KeyframeRecord& query, const Eigen::Isometry3d& T_map_query, const GatedOutcome& gated, DetectorOutput& out,
+                        const DecisionCallback& on_decided);
+  std::function<bool(const KeyframeKey&)> prior_free_filter(const KeyframeRecord& query, const GatedOutcome& gated) const;
+  bool confirm_prior_free(const KeyframeRecord& query, const KeyframeRecord& match, const VerifyResult& verification,
+                          const Eigen::Isometry3d& T_map_query, LoopDecision& decision);
+  const Eigen::Isometry3d& corrected(const KeyframeKey& key) const { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(key))]; }
   void report(LoopDecision decision, DetectorOutput& out, const DecisionCallback& on_decided);
   void report_descriptor_rejection(const KeyframeRecord& query, const RankedCandidate& best, double radius, DetectorOutput& out,
                                    const DecisionCallback& on_decided);
@@ -181,6 +207,9 @@ class LoopDetector {
   std::int64_t loops_rejected_ = 0;
   std::optional<KeyframeKey> last_accepted_;  ///< query of the newest accepted loop
   std::vector<LoopConstraint> restored_loops_;
+  SessionFrames sessions_;               ///< sessions in the corrector's one pose sequence, and which loops tied them
+  PlaceIndex places_;                    ///< every keyframe's place descriptor (global retrieval)
+  PriorFreeConfirmation confirmation_;   ///< the newest verified prior-free loop, until the next keyframes agree
   std::unique_ptr<FeatureCache> cache_;  ///< null: every keyframe keeps its full features in memory
   PreparedLoader load_prepared_;         ///< accepted loops restored, handed to the corrector by resume_correction()
 };

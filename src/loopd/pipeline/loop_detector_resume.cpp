@@ -4,16 +4,14 @@
 namespace loopd {
 
 void LoopDetector::restore_keyframe(const KeyframeRecord& record) {
-  // The same placement as add_keyframe(), without candidates: travel, corrector, gate.
-  if (!keyframes_.empty()) travelled_ += (keyframes_.newest().T_odom_sensor.inverse() * record.T_odom_sensor).translation().norm();
+  // The same placement as add_keyframe(), without candidates: sessions, travel, corrector, gate, place index.
   std::shared_ptr<const KeyframeFeatures> features = record.features && record.features->ok ? record.features : nullptr;
-  pose_index_[record.key] = corrector_.add_keyframe(record.T_odom_sensor, record.residual);
-  const Eigen::Isometry3d T_map_query = corrector_.T_map_odom() * record.T_odom_sensor;
   KeyframeInput input;
   input.key = record.key;
   input.utime = record.utime;
   input.T_odom_sensor = record.T_odom_sensor;
   input.residual = record.residual;
+  const Eigen::Isometry3d T_map_query = enter_pose_sequence(input);
   const KeyframeRecord& placed = place_keyframe(input, std::move(features), T_map_query);
   gate_.add({placed.key, T_map_query.translation(), travelled_});
 }
@@ -27,6 +25,7 @@ LoopConstraint LoopDetector::count_restored(const LoopDecision& decision, const 
   }
   ++loops_accepted_;
   last_accepted_ = decision.query;
+  if (!sessions_.cannot_tie(decision.query.session, decision.match.session)) sessions_.tie(decision.query.session, decision.match.session);
   travelled_at_last_loop_ = travelled_;
   loop.query_index = pose_index(decision.query);
   loop.match_index = pose_index(decision.match);
