@@ -2,11 +2,13 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <random>
+#include <tuple>
 
 #include "loopd/eval/evaluation.hpp"
 #include "loopd/eval/loop_ground_truth.hpp"
 #include "loopd/eval/odometry_drift.hpp"
 #include "loopd/eval/pose_error.hpp"
+#include "loopd/eval/session_metrics.hpp"
 
 using namespace loopd;
 
@@ -206,4 +208,145 @@ TEST_CASE("loop ground truth on the real KITTI poses matches the counts in the d
   const auto l00 = count(poses00, true, false);
   CHECK(l00.num_pairs == 1559);
   CHECK(l00.num_queries == 554);
+}
+
+namespace {
+// Two sessions of the same town: session 0 drives x = 0..99 (y = 0) and is the map; session 1, a day later, drives
+// x = -30..69 on y = 1 and enters the mapped area (10 m of a session-0 keyframe) at x = -9. Its first accepted
+// inter-session loop is at keyframe 40 (x = 10); from there its corrected poses are ground truth * E (0.5 m, 2 deg
+// off in the keyframe's own frame), before it 100 m off (an unanchored session's arbitrary placement).
+constexpr std::int64_t kDay = 86400LL * 1000000LL;
+const Eigen::Isometry3d kE = make_isometry(0.5, 0.0, 0.0, 2.0 * M_PI / 180.0);
+
+struct TwoSessions {
+  std::vector<SessionKeyframe> keyframes;
+  std::vector<StampedPose> ground_truth;
+};
+
+TwoSessions two_sessions(int sessions = 2) {
+  TwoSessions t;
+  for (int s = 0; s < sessions; ++s)
+    for (int i = 0; i < 100; ++i) {
+      SessionKeyframe k;
+      k.session = s;
+      k.utime = s * kDay + 1000000 + i * 100000;
+      k.T_world = s == 0 ? make_isometry(i, 0, 0, 0) : make_isometry(i - 30.0, 1.0, 0.0, 0.1 * s);
+      k.T_map = s == 0 ? k.T_world : (i >= 40 ? Eigen::Isometry3d(k.T_world * kE) : make_isometry(100.0 + i, 0, 0, 0));
+      t.keyframes.push_back(k);
+      t.ground_truth.push_back({k.utime, k.T_world});
+    }
+  return t;
+}
+
+SessionLoop inter_loop(int query_index, bool correct, std::int32_t session = 1) {
+  return {session, 0, session * kDay + 1000000 + query_index * 100000, correct};
+}
+}  // namespace
+
+TEST_CASE("session metrics: a session 0.5 m / 2 deg off the map gives those numbers, counted from its first inter-session loop") {
+  const TwoSessions t = two_sessions();
+  // Inter-session loops 1->0 at keyframes 40 (correct) and 60 (wrong); loops within one session do not count.
+  const std::vector<SessionLoop> loops = {
+      inter_loop(60, false), inter_loop(40, true), {1, 1, kDay + 1000000 + 90 * 100000, true}, {0, 0, 5000000, true}};
+  const SessionMetrics m = session_metrics(t.keyframes, loops, {{0, true}, {1, true}}, t.ground_truth);
+  CHECK(m.sessions == 2);
+  CHECK(m.sessions_aligned == 1);
+  CHECK(m.sessions_unaligned == 0);
+  CHECK(m.inter_session_loops_accepted == 2);
+  CHECK(m.inter_session_loops_correct == 1);
+  REQUIRE(m.alignment_error_m);
+  REQUIRE(m.alignment_error_deg);
+  CHECK(*m.alignment_error_m == Approx(0.5));
+  CHECK(*m.alignment_error_deg == Approx(2.0));
+  REQUIRE(m.per_session.size() == 2);
+  CHECK(m.per_session[0].first);
+  CHECK_FALSE(m.per_session[0].alignment_error_m);
+  const SessionStats& s1 = m.per_session[1];
+  CHECK(s1.keyframes == 100);
+  CHECK(s1.anchor_utime == kDay + 1000000 + 40 * 100000);
+  CHECK(s1.alignment_samples == 60);  // keyframes 40..99 (x = 10..69), all within 1 m of a session-0 keyframe
+  // Mapped area from x = -9 (sqrt(81 + 1) < 10): steps ending at x = -9 .. 10 before the loop, 1 m each.
+  REQUIRE(m.alignment_distance_m);
+  CHECK(*m.alignment_distance_m == Approx(20.0));
+  CHECK(s1.mapped_distance_m == Approx(79.0));  // x = -9 .. 69
+
+  // Without the session list (older logs) a session counts as anchored once an inter-session loop was accepted.
+  const SessionMetrics no_list = session_metrics(t.keyframes, loops, {}, t.ground_truth);
+  CHECK(no_list.sessions_aligned == 1);
+  CHECK(*no_list.alignment_error_m == Approx(0.5));
+}
+
+TEST_CASE("session metrics: an unanchored session is null and counted as unaligned") {
+  const TwoSessions t = two_sessions(3);
+  // Session 1 anchored (loop at keyframe 40); session 2 (same path, another day) never tied to the map.
+  const SessionMetrics m = session_metrics(t.keyframes, {inter_loop(40, true)}, {{0, true}, {1, true}, {2, false}}, t.ground_truth);
+  CHECK(m.sessions == 3);
+  CHECK(m.sessions_aligned == 1);
+  CHECK(m.sessions_unaligned == 1);
+  REQUIRE(m.per_session.size() == 3);
+  const SessionStats& s2 = m.per_session[2];
+  CHECK_FALSE(s2.anchored);
+  CHECK_FALSE(s2.alignment_error_m);
+  CHECK_FALSE(s2.alignment_error_deg);
+  CHECK_FALSE(s2.distance_to_alignment_m);
+  CHECK(s2.mapped_distance_m > 90.0);          // its whole path lies near session 0's or session 1's keyframes
+  CHECK(*m.alignment_error_m == Approx(0.5));  // the worst is over the sessions that have one
+
+  // Only an unanchored later session: every worst figure is null.
+  TwoSessions one = two_sessions();
+  const SessionMetrics u = session_metrics(one.keyframes, {}, {{0, true}, {1, false}}, one.ground_truth);
+  CHECK(u.sessions_unaligned == 1);
+  CHECK(u.sessions_aligned == 0);
+  CHECK_FALSE(u.alignment_error_m);
+  CHECK_FALSE(u.alignment_error_deg);
+  CHECK_FALSE(u.alignment_distance_m);
+
+  // A single session (every drive before sessions): nothing after the first, nothing to judge.
+  one.keyframes.resize(100);
+  const SessionMetrics single = session_metrics(one.keyframes, {}, {}, one.ground_truth);
+  CHECK(single.sessions == 1);
+  CHECK(single.sessions_aligned + single.sessions_unaligned == 0);
+  CHECK_FALSE(single.alignment_error_m);
+}
+
+TEST_CASE("evaluate: inter-session loops counted under the closure rule, sessions from the corrected keyframes") {
+  const TwoSessions t = two_sessions();
+  EvalInput in;
+  for (const auto& k : t.keyframes) {
+    in.ground_truth.push_back({k.utime, k.T_world});
+    in.odometry.push_back({k.utime, k.T_world});
+    in.scan_utimes.push_back(k.utime);
+    KeyframePose kp;
+    kp.utime = k.utime;
+    kp.T_map_sensor = k.T_map;
+    kp.session = k.session;
+    in.corrected.push_back(kp);
+  }
+  in.sessions = {{0, true}, {1, true}};
+  // Session-1 keyframe 40 (x = 10, y = 1) against session-0 keyframe 10: one exact loop, one 1 m off (wrong), and
+  // one rejected (not counted).
+  for (const auto& [qi, mi, off, status] : {std::tuple{40, 10, 0.0, LoopStatus::kAccepted}, std::tuple{50, 20, 1.0, LoopStatus::kAccepted},
+                                            std::tuple{60, 30, 0.0, LoopStatus::kRejected}}) {
+    LoopRecord r;
+    r.event_id = static_cast<std::int64_t>(in.loops.size());
+    r.query_utime = t.keyframes[static_cast<std::size_t>(100 + qi)].utime;
+    r.match_utime = t.keyframes[static_cast<std::size_t>(mi)].utime;
+    r.query_session = 1;
+    r.match_session = 0;
+    r.status = status;
+    r.stage = status == LoopStatus::kAccepted ? "accepted" : "gicp";
+    r.T_match_query = t.keyframes[static_cast<std::size_t>(mi)].T_world.inverse() * t.keyframes[static_cast<std::size_t>(100 + qi)].T_world;
+    r.T_match_query.translation().y() += off;
+    in.loops.push_back(r);
+  }
+  const EvalReport rep = evaluate(in, EvalConfig{});
+  REQUIRE(rep.ok);
+  CHECK(rep.closure.accepted == 2);
+  CHECK(rep.closure.correct == 1);
+  CHECK(rep.sessions.inter_session_loops_accepted == 2);
+  CHECK(rep.sessions.inter_session_loops_correct == 1);
+  CHECK(rep.sessions.sessions == 2);
+  REQUIRE(rep.sessions.alignment_error_m);
+  CHECK(*rep.sessions.alignment_error_m == Approx(0.5));
+  CHECK(*rep.sessions.alignment_distance_m == Approx(20.0));
 }

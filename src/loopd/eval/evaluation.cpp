@@ -211,6 +211,22 @@ void fill_loop_errors(const std::vector<LoopRecord>& loops, EvalReport& rep) {
   rep.loop_rotation_error_deg = error_stats(rotation);
 }
 
+/// @brief Multi-session figures over the corrected trajectory's keyframes that have ground truth, and the accepted
+/// loop pairs with their closure verdicts.
+void fill_session_metrics(const EvalInput& in, const std::vector<StampedPose>& gt, const EvalConfig& config, EvalReport& rep) {
+  std::vector<SessionKeyframe> kfs;
+  for (const KeyframePose& k : in.corrected) {
+    const auto g = pose_at(gt, k.utime, config.max_interpolation_gap_us, config.max_nearest_gap_us);
+    if (g) kfs.push_back({k.session, k.utime, k.T_map_sensor, *g});
+  }
+  std::vector<SessionLoop> loops;
+  for (const LoopCheck& c : rep.checks) {
+    const LoopRecord& l = in.loops[c.loop];
+    if (l.status == LoopStatus::kAccepted) loops.push_back({l.query_session, l.match_session, l.query_utime, c.correct});
+  }
+  rep.sessions = session_metrics(kfs, loops, in.sessions, gt, config.sessions);
+}
+
 /// @brief Per-stage timings over the loop events.
 void fill_timings(const std::vector<LoopRecord>& loops, EvalReport& rep) {
   rep.ms_descriptor = timing_stats(loops, &LoopRecord::ms_descriptor);
@@ -227,6 +243,7 @@ std::optional<std::string> EvalConfig::validate() const {
   if (!(closure_max_translation > 0)) return "eval: closure_max_translation must be > 0 m";
   if (!(closure_max_rotation_deg > 0)) return "eval: closure_max_rotation_deg must be > 0 deg";
   if (max_interpolation_gap_us < 0 || max_nearest_gap_us < 0) return "eval: time gaps must be >= 0 us";
+  if (!(sessions.mapped_radius > 0) || !std::isfinite(sessions.mapped_radius)) return "eval: the mapped-area radius must be > 0 m";
   return std::nullopt;
 }
 
@@ -295,6 +312,7 @@ EvalReport evaluate(const EvalInput& in, const EvalConfig& config) {
   fill_pose_errors(rep);
   fill_loop_errors(in.loops, rep);
   fill_timings(in.loops, rep);
+  fill_session_metrics(in, tr.gt, config, rep);
   rep.ok = true;
   return rep;
 }

@@ -8,6 +8,7 @@
 #include "loopd/core/pose.hpp"
 #include "loopd/eval/loop_ground_truth.hpp"
 #include "loopd/eval/pose_error.hpp"
+#include "loopd/eval/session_metrics.hpp"
 
 namespace loopd {
 
@@ -17,8 +18,9 @@ enum class LoopStatus { kCandidate = 0, kAccepted = 1, kRejected = 2 };
 /// @brief One loop decision published by loopd, in core types (loop_event_t without LCM).
 struct LoopRecord {
   std::int64_t event_id = 0;
-  std::int64_t query_utime = 0;  ///< [us] scan utime of the query (newer) keyframe
-  std::int64_t match_utime = 0;  ///< [us] scan utime of the match (older) keyframe
+  std::int64_t query_utime = 0;                       ///< [us] scan utime of the query (newer) keyframe
+  std::int64_t match_utime = 0;                       ///< [us] scan utime of the match (older) keyframe
+  std::int32_t query_session = 0, match_session = 0;  ///< loopd sessions of the two keyframes (0 in logs before sessions)
   LoopStatus status = LoopStatus::kCandidate;
   std::string stage;                  ///< gate, descriptor, fourpcs, gicp, hungarian, accepted
   double descriptor_distance = -1.0;  ///< M2DP distance; < 0 (or stage "gate") when not computed
@@ -30,6 +32,7 @@ struct LoopRecord {
 struct KeyframePose {
   std::int64_t utime = 0;  ///< [us]
   Eigen::Isometry3d T_map_sensor = Eigen::Isometry3d::Identity();
+  std::int32_t session = 0;  ///< loopd session of the keyframe (trajectory_t.keyframe_sessions)
 };
 
 /// @brief Everything the evaluation needs, read from a drive log and loopd's output log.
@@ -40,6 +43,7 @@ struct EvalInput {
   std::vector<LoopRecord> loops;                                 ///< every loop event
   std::vector<KeyframePose> corrected;                           ///< last trajectory revision, oldest first (may be empty)
   Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();  ///< of that revision (for later keyframes)
+  std::vector<SessionAnchor> sessions;                           ///< that revision's session list (empty in older logs)
 };
 
 struct EvalConfig {
@@ -48,6 +52,7 @@ struct EvalConfig {
   double closure_max_rotation_deg = 2.0;            ///< [deg] ... and this of ground truth
   std::int64_t max_interpolation_gap_us = 1000000;  ///< [us] interpolate ground truth / odometry across gaps up to this
   std::int64_t max_nearest_gap_us = 100000;         ///< [us] else use the nearest pose when this close
+  SessionMetricsConfig sessions;                    ///< multi-session figures (mapped area radius)
   std::optional<std::string> validate() const;
 };
 
@@ -122,6 +127,7 @@ struct EvalReport {
   ErrorStats loop_rotation_error_deg;    ///< [deg] the same, rotation
   double ate_before = 0, ate_after = 0;  ///< ATE RMSE after SE(3) Umeyama alignment [m]
   bool has_corrected = false;
+  SessionMetrics sessions;  ///< multi-session figures over the corrected trajectory's keyframes
   TimingStats ms_descriptor, ms_fourpcs, ms_gicp, ms_hungarian, ms_total;
 };
 
