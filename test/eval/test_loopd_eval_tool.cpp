@@ -189,7 +189,7 @@ TEST_CASE("loopd-eval binary: same figures from LCM logs, JSON as the last line,
     REQUIRE(w.open(results, &err));
     // An older, wrong trajectory revision first: the evaluator must use the LAST one.
     for (int rev : {0, 1}) {
-      trajectory_t t;
+      trajectory_t t{};  // value-initialised: num_sessions = 0 (a single-session trajectory without a session list)
       t.utime = utime_of(299);
       t.revision = rev;
       t.loop_event_id = 0;
@@ -207,6 +207,7 @@ TEST_CASE("loopd-eval binary: same figures from LCM logs, JSON as the last line,
         k.orientation[2] = q.y();
         k.orientation[3] = q.z();
         t.keyframes.push_back(k);
+        t.keyframe_sessions.push_back(0);
       }
       t.num_keyframes = static_cast<std::int32_t>(t.keyframes.size());
       // Revision 1 is a partial message (every pose changed): the evaluator applies it on top of revision 0 by id.
@@ -277,6 +278,162 @@ TEST_CASE("loopd-eval binary: same figures from LCM logs, JSON as the last line,
   CHECK(j2["true_positives"].get<int>() == 0);
   CHECK(j2["false_positives"].get<int>() == 4);
   CHECK(j2["false_negatives"].get<int>() == 25);
+  if (std::getenv("LOOPD_KEEP_TEST_OUTPUT"))
+    WARN("kept " << dir.string());
+  else
+    fs::remove_all(dir);
+}
+namespace {
+
+// Two sessions on one map (see test_eval_metrics.cpp): session 0 drives x = 0..99, session 1 a day later x = -30..69
+// on y = 1, tied to the map by a loop at its keyframe 40 (corrected poses 0.5 m / 2 deg off from there on).
+constexpr std::int64_t kDay = 86400LL * 1000000LL;
+std::int64_t session_utime(int session, int i) { return session * kDay + kUtime0 + i * kPeriod; }
+Eigen::Isometry3d session_gt(int session, int i) { return session == 0 ? make_isometry(i, 0, 0, 0) : make_isometry(i - 30.0, 1.0, 0.0, 0.1); }
+Eigen::Isometry3d session_corrected(int session, int i) {
+  if (session == 0) return session_gt(0, i);
+  return i >= 40 ? Eigen::Isometry3d(session_gt(1, i) * make_isometry(0.5, 0, 0, 2.0 * M_PI / 180.0)) : make_isometry(100.0 + i, 0, 0, 0);
+}
+
+void write_session_drive(const std::string& path, int session) {
+  LogWriter w;
+  std::string err;
+  REQUIRE(w.open(path, &err));
+  for (int i = 0; i < 100; ++i) {
+    StampedPose g{session_utime(session, i), session_gt(session, i)};
+    StampedPose o{g.utime, session_gt(session, 0).inverse() * g.T_world_sensor};  // its own odometry frame, identity at the start
+    REQUIRE(w.write_message(channels::kGroundTruth, g.utime, to_message(g, i)));
+    REQUIRE(w.write_message(channels::kPose, g.utime, to_message(o, i)));
+    PointCloud c;
+    c.points = {{1.f, 2.f, 3.f}};
+    REQUIRE(w.write_message(channels::kScan, g.utime, to_message(c, g.utime, i, "lidar")));
+  }
+}
+
+loop_event_t session_loop(std::int64_t id, int q, int m, int q_session, int m_session, double offset) {
+  loop_event_t e{};
+  e.event_id = id;
+  e.query_id = q;
+  e.match_id = m;
+  e.query_utime = session_utime(q_session, q);
+  e.match_utime = session_utime(m_session, m);
+  e.utime = e.query_utime;
+  e.query_session = q_session;
+  e.match_session = m_session;
+  e.status = loop_event_t::STATUS_ACCEPTED;
+  e.stage = "accepted";
+  e.retrieval = q_session == m_session ? "gate" : "global";
+  e.descriptor_distance = 0.1;
+  e.place_distance = -1;
+  Eigen::Isometry3d T = session_gt(m_session, m).inverse() * session_gt(q_session, q);
+  T.translation().y() += offset;
+  to_row_major(T, e.T_match_query);
+  return e;
+}
+
+/// A results log: the final full trajectory of `sessions` sessions, and its loop events.
+void write_session_results(const std::string& path, int sessions, bool anchored, const std::vector<loop_event_t>& loops) {
+  LogWriter w;
+  std::string err;
+  REQUIRE(w.open(path, &err));
+  for (const auto& e : loops) REQUIRE(w.write_message(channels::kLoopEvent, e.utime, e));
+  trajectory_t t{};
+  t.utime = session_utime(sessions - 1, 99);
+  t.revision = 3;
+  t.method = "graph";
+  to_row_major(Eigen::Isometry3d::Identity(), t.T_map_odom);
+  for (int s = 0; s < sessions; ++s) {
+    for (int i = 0; i < 100; ++i) {
+      const Eigen::Isometry3d T = session_corrected(s, i);
+      const Eigen::Quaterniond q(T.linear());
+      keyframe_pose_t k{};
+      k.id = i;
+      k.utime = session_utime(s, i);
+      for (int a = 0; a < 3; ++a) k.position[a] = T.translation()(a);
+      k.orientation[0] = q.w();
+      k.orientation[1] = q.x();
+      k.orientation[2] = q.y();
+      k.orientation[3] = q.z();
+      t.keyframes.push_back(k);
+      t.keyframe_sessions.push_back(s);
+    }
+    session_alignment_t a{};
+    a.session = s;
+    a.anchored = s == 0 || anchored;
+    to_row_major(Eigen::Isometry3d::Identity(), a.T_map_session);
+    a.num_keyframes = 100;
+    t.sessions.push_back(a);
+  }
+  t.num_keyframes = static_cast<std::int32_t>(t.keyframes.size());
+  t.num_sessions = static_cast<std::int32_t>(t.sessions.size());
+  t.full = true;
+  t.total_keyframes = t.num_keyframes;
+  REQUIRE(w.write_message(channels::kTrajectory, t.utime, t));
+}
+
+nlohmann::json run_eval_json(const std::string& args, const fs::path& dir) {
+  const std::string bin = std::string(LOOPD_BINARY_DIR) + "/tools/loopd-eval/loopd-eval";
+  const std::string out = (dir / "stdout.txt").string();
+  const std::string cmd = bin + " " + args + " --json --quiet > " + out + " 2> " + (dir / "stderr.txt").string();
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  std::ifstream f(out);
+  std::string line, last;
+  while (std::getline(f, line))
+    if (!line.empty()) last = line;
+  return nlohmann::json::parse(last);
+}
+
+}  // namespace
+
+TEST_CASE("loopd-eval binary: two drives and two results logs of a two-session map give the session figures") {
+  if (!fs::exists(std::string(LOOPD_BINARY_DIR) + "/tools/loopd-eval/loopd-eval")) {
+    WARN("skipped: loopd-eval not built");
+    return;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("loopd_test_eval_sessions_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string d1 = (dir / "s1.lcmlog").string(), d2 = (dir / "s2.lcmlog").string();
+  const std::string o1 = (dir / "o1.lcmlog").string(), o2 = (dir / "o2.lcmlog").string(), o2u = (dir / "o2u.lcmlog").string();
+  write_session_drive(d1, 0);
+  write_session_drive(d2, 1);
+  // Run 1: one session, one loop within it. Run 2: the resumed map (both sessions), loops 1->0 at keyframe 40
+  // (exact) and 60 (1 m off: wrong), and one within session 1.
+  write_session_results(o1, 1, true, {session_loop(0, 90, 10, 0, 0, 0.0)});
+  const std::vector<loop_event_t> run2 = {session_loop(0, 40, 70, 1, 0, 0.0), session_loop(1, 60, 90, 1, 0, 1.0), session_loop(2, 99, 10, 1, 1, 0.0)};
+  write_session_results(o2, 2, true, run2);
+  write_session_results(o2u, 2, false, {session_loop(2, 99, 10, 1, 1, 0.0)});
+
+  // The drives in either order, and the results logs in either order: the same figures.
+  for (const std::string& args : {"--drive " + d1 + " --drive " + d2 + " --results " + o1 + " --results " + o2,
+                                  "--drive " + d2 + " --drive " + d1 + " --results " + o2 + " --results " + o1}) {
+    const auto j = run_eval_json(args, dir);
+    CHECK(j["keyframes"].get<int>() == 200);
+    CHECK(j["scans"].get<int>() == 200);
+    CHECK(j["loop_events"].get<int>() == 4);
+    CHECK(j["accepted"].get<int>() == 4);
+    CHECK(j["correct"].get<int>() == 3);
+    CHECK(j["sessions"].get<int>() == 2);
+    CHECK(j["sessions_aligned"].get<int>() == 1);
+    CHECK(j["sessions_unaligned"].get<int>() == 0);
+    CHECK(j["inter_session_loops_accepted"].get<int>() == 2);
+    CHECK(j["inter_session_loops_correct"].get<int>() == 1);
+    CHECK(j["session_alignment_error_m"].get<double>() == Approx(0.5).epsilon(1e-6));
+    CHECK(j["session_alignment_error_deg"].get<double>() == Approx(2.0).epsilon(1e-6));
+    CHECK(j["session_alignment_distance_m"].get<double>() == Approx(20.0));
+    REQUIRE(j["session_stats"].size() == 2);
+    CHECK(j["session_stats"][1]["alignment_samples"].get<int>() == 60);
+    CHECK(j["session_stats"][1]["drive"].get<int>() == (args.rfind("--drive " + d1, 0) == 0 ? 2 : 1));
+  }
+  // Session 1 never anchored: null figures, counted as unaligned.
+  const auto u = run_eval_json("--drive " + d1 + " --drive " + d2 + " --results " + o2u, dir);
+  CHECK(u["sessions"].get<int>() == 2);
+  CHECK(u["sessions_aligned"].get<int>() == 0);
+  CHECK(u["sessions_unaligned"].get<int>() == 1);
+  CHECK(u["inter_session_loops_accepted"].get<int>() == 0);
+  CHECK(u["session_alignment_error_m"].is_null());
+  CHECK(u["session_alignment_error_deg"].is_null());
+  CHECK(u["session_alignment_distance_m"].is_null());
   if (std::getenv("LOOPD_KEEP_TEST_OUTPUT"))
     WARN("kept " << dir.string());
   else

@@ -1,5 +1,6 @@
 #include "eval_log.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <loopd/loop_event_t.hpp>
 #include <loopd/point_cloud_t.hpp>
@@ -112,6 +113,8 @@ bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput
       r.event_id = loop_msg.event_id;
       r.query_utime = loop_msg.query_utime;
       r.match_utime = loop_msg.match_utime;
+      r.query_session = loop_msg.query_session;
+      r.match_session = loop_msg.match_session;
       r.status = loop_msg.status == loop_event_t::STATUS_ACCEPTED   ? LoopStatus::kAccepted
                  : loop_msg.status == loop_event_t::STATUS_REJECTED ? LoopStatus::kRejected
                                                                     : LoopStatus::kCandidate;
@@ -143,15 +146,53 @@ bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput
     const trajectory_t last = assembly.current();
     stats->trajectory_revision = last.revision;
     input->corrected.clear();
-    for (const auto& k : last.keyframes) {
+    const bool has_sessions = last.keyframe_sessions.size() == last.keyframes.size();
+    for (std::size_t i = 0; i < last.keyframes.size(); ++i) {
+      const auto& k = last.keyframes[i];
       KeyframePose kp;
       kp.utime = k.utime;
       kp.T_map_sensor = make_isometry(k.position, k.orientation);
+      kp.session = has_sessions ? last.keyframe_sessions[i] : 0;
       input->corrected.push_back(kp);
     }
     input->T_map_odom = from_row_major(last.T_map_odom);
+    input->sessions.clear();
+    for (const auto& a : last.sessions) input->sessions.push_back({a.session, a.anchored != 0});
   }
   return true;
+}
+
+void LogReadStats::add(const LogReadStats& o) {
+  events += o.events;
+  scans += o.scans;
+  ground_truth += o.ground_truth;
+  odometry += o.odometry;
+  loop_events += o.loop_events;
+  trajectories += o.trajectories;
+  malformed += o.malformed;
+  skipped += o.skipped;
+}
+
+void merge_drives(std::vector<EvalInput> drives, EvalInput* input) {
+  const auto first_utime = [](const EvalInput& d) { return d.ground_truth.empty() ? std::int64_t{0} : d.ground_truth.front().utime; };
+  std::stable_sort(drives.begin(), drives.end(), [&](const EvalInput& a, const EvalInput& b) { return first_utime(a) < first_utime(b); });
+  for (auto& d : drives) {
+    input->ground_truth.insert(input->ground_truth.end(), d.ground_truth.begin(), d.ground_truth.end());
+    input->odometry.insert(input->odometry.end(), d.odometry.begin(), d.odometry.end());
+    input->scan_utimes.insert(input->scan_utimes.end(), d.scan_utimes.begin(), d.scan_utimes.end());
+  }
+}
+
+void merge_results(EvalInput&& part, const LogReadStats& part_stats, EvalInput* input, LogReadStats* stats) {
+  input->loops.insert(input->loops.end(), part.loops.begin(), part.loops.end());
+  const bool take = part_stats.trajectory_revision >= 0 && part.corrected.size() >= input->corrected.size();
+  const std::int64_t revision = take ? part_stats.trajectory_revision : stats->trajectory_revision;
+  stats->add(part_stats);
+  stats->trajectory_revision = revision;
+  if (!take) return;
+  input->corrected = std::move(part.corrected);
+  input->T_map_odom = part.T_map_odom;
+  input->sessions = std::move(part.sessions);
 }
 
 }  // namespace loopd::tools

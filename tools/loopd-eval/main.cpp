@@ -1,7 +1,9 @@
 // loopd-eval: judges loopd's output log against a drive's ground truth (Vlaminck 2019, 5.3 and 5.4).
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 
 #include "eval_log.hpp"
 #include "loopd/eval/evaluation.hpp"
@@ -13,6 +15,25 @@ using namespace loopd;
 using namespace loopd::tools;
 
 namespace {
+
+constexpr const char* kSessionsHelp = R"(Sessions (a later drive on the same map, or a drive's part after an odometry reset; ids from the
+trajectory's keyframe_sessions, the first = the map):
+  sessions                      distinct sessions in the last trajectory revision (keyframes and session list)
+  sessions_aligned / _unaligned sessions after the first that are / are not anchored (trajectory_t.sessions[].anchored)
+  inter_session_loops_accepted  accepted loop pairs with query_session != match_session
+  inter_session_loops_correct   ... of them within --closure-translation / --closure-rotation of ground truth
+  session_alignment_error_m/deg worst over the sessions after the first of: the median, over the session's keyframes q
+                                from its first accepted inter-session loop on that lie within --mapped-radius (ground
+                                truth) of an earlier session's keyframe, of the error of T_map_m^-1 T_map_q against
+                                T_world_m^-1 T_world_q (m = the nearest such earlier keyframe); null when no session has one
+  session_alignment_distance_m  worst over those sessions of the ground-truth path driven within --mapped-radius of an
+                                earlier session's keyframe before the session's first accepted inter-session loop)";
+
+/// @brief One --drive log: its ground-truth time span and scans.
+struct DriveSpan {
+  std::int64_t first_utime = 0, last_utime = 0;  ///< [us]
+  std::int64_t scans = 0;
+};
 
 nlohmann::json timing_json(const TimingStats& t) { return {{"median", t.median}, {"p95", t.p95}, {"max", t.max}, {"count", t.count}}; }
 
@@ -37,16 +58,183 @@ bool export_trajectories(const std::string& dir, const EvalReport& rep, bool kit
   return true;
 }
 
+/// @brief Reads every drive log (in the order given) and every results log into `input`; false after printing why.
+bool read_logs(const std::vector<std::string>& drives, const std::vector<std::string>& results, const EvalChannels& ch, bool quiet, EvalInput* input,
+               std::vector<DriveSpan>* spans, LogReadStats* drive_stats, LogReadStats* result_stats) {
+  std::string error;
+  std::vector<EvalInput> drive_inputs;
+  for (std::size_t i = 0; i < drives.size(); ++i) {
+    Progress bar(drives.size() > 1 ? "reading drive " + std::to_string(i + 1) : "reading drive  ", 100, !quiet);
+    auto cb = [&](std::int64_t done, std::int64_t total) { bar.update(total > 0 ? done * 100 / total : 0); };
+    EvalInput d;
+    LogReadStats st;
+    if (!read_drive_log(drives[i], ch, &d, &st, cb, &error)) {
+      std::cerr << "\nloopd-eval: " << error << "\n";
+      return false;
+    }
+    bar.finish();
+    spans->push_back({d.ground_truth.front().utime, d.ground_truth.back().utime, st.scans});
+    for (const auto& p : d.ground_truth) {
+      spans->back().first_utime = std::min(spans->back().first_utime, p.utime);
+      spans->back().last_utime = std::max(spans->back().last_utime, p.utime);
+    }
+    drive_stats->add(st);
+    drive_inputs.push_back(std::move(d));
+  }
+  merge_drives(std::move(drive_inputs), input);
+  for (std::size_t i = 0; i < results.size(); ++i) {
+    Progress bar(results.size() > 1 ? "reading results " + std::to_string(i + 1) : "reading results", 100, !quiet);
+    auto cb = [&](std::int64_t done, std::int64_t total) { bar.update(total > 0 ? done * 100 / total : 0); };
+    EvalInput part;
+    LogReadStats st;
+    if (!read_results_log(results[i], ch, &part, &st, cb, &error)) {
+      std::cerr << "\nloopd-eval: " << error << "\n";
+      return false;
+    }
+    bar.finish();
+    merge_results(std::move(part), st, input, result_stats);
+  }
+  return true;
+}
+
+/// @brief 1-based --drive whose ground truth spans `utime`, or 0.
+std::size_t drive_of(const std::vector<DriveSpan>& spans, std::int64_t utime) {
+  for (std::size_t i = 0; i < spans.size(); ++i)
+    if (utime >= spans[i].first_utime && utime <= spans[i].last_utime) return i + 1;
+  return 0;
+}
+
+std::string opt_fmt(const std::optional<double>& v, int precision, const char* none = "-") { return v ? fmt(*v, precision) : none; }
+nlohmann::json opt_json(const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(nullptr); }
+
+/// @brief The "sessions" block: one row per loopd session (printed when there is more than one).
+void print_sessions(const SessionMetrics& sm, const std::vector<DriveSpan>& spans) {
+  if (sm.sessions <= 1) return;
+  Table t({"session", "drive", "keyframes", "anchored", "alignment error median [m / deg] (keyframes)", "distance to alignment [m]"});
+  for (const SessionStats& s : sm.per_session) {
+    const std::size_t drive = drive_of(spans, s.first_utime);
+    const std::string err = s.first ? "-"
+                                    : opt_fmt(s.alignment_error_m, 3, "null") + " / " + opt_fmt(s.alignment_error_deg, 2, "null") + " (" +
+                                          std::to_string(s.alignment_samples) + ")";
+    std::string dist = "-";
+    if (!s.first)
+      dist = s.distance_to_alignment_m ? fmt(*s.distance_to_alignment_m, 1) : "never (" + fmt(s.mapped_distance_m, 1) + " in the mapped area)";
+    t.add({std::to_string(s.session), drive > 0 ? std::to_string(drive) : "?", std::to_string(s.keyframes),
+           s.first ? "map" : (s.anchored ? "yes" : "no"), err, dist});
+  }
+  std::cout << t.str() << "sessions: " << sm.sessions << ", aligned " << sm.sessions_aligned << ", unaligned " << sm.sessions_unaligned
+            << "; inter-session loops accepted / correct: " << sm.inter_session_loops_accepted << " / " << sm.inter_session_loops_correct
+            << "; worst alignment error " << opt_fmt(sm.alignment_error_m, 3, "null") << " m / " << opt_fmt(sm.alignment_error_deg, 2, "null")
+            << " deg, worst distance to alignment " << opt_fmt(sm.alignment_distance_m, 1, "null") << " m\n\n";
+}
+
+/// @brief The multi-session JSON keys (beside the single-drive ones).
+void add_session_json(const SessionMetrics& sm, const std::vector<DriveSpan>& spans, nlohmann::json& j) {
+  j["sessions"] = sm.sessions;
+  j["sessions_aligned"] = sm.sessions_aligned;
+  j["sessions_unaligned"] = sm.sessions_unaligned;
+  j["inter_session_loops_accepted"] = sm.inter_session_loops_accepted;
+  j["inter_session_loops_correct"] = sm.inter_session_loops_correct;
+  j["session_alignment_error_m"] = opt_json(sm.alignment_error_m);
+  j["session_alignment_error_deg"] = opt_json(sm.alignment_error_deg);
+  j["session_alignment_distance_m"] = opt_json(sm.alignment_distance_m);
+  nlohmann::json per = nlohmann::json::array();
+  for (const SessionStats& s : sm.per_session)
+    per.push_back({{"session", s.session},
+                   {"drive", drive_of(spans, s.first_utime)},
+                   {"keyframes", s.keyframes},
+                   {"first", s.first},
+                   {"anchored", s.anchored},
+                   {"alignment_error_m", opt_json(s.alignment_error_m)},
+                   {"alignment_error_deg", opt_json(s.alignment_error_deg)},
+                   {"alignment_samples", s.alignment_samples},
+                   {"distance_to_alignment_m", opt_json(s.distance_to_alignment_m)},
+                   {"mapped_distance_m", s.mapped_distance_m}});
+  j["session_stats"] = per;
+}
+
+/// @brief The --json object: the single-drive keys and the session keys.
+nlohmann::json report_json(const EvalReport& rep, const LogReadStats& drive_stats, const LogReadStats& result_stats,
+                           const std::vector<DriveSpan>& spans, const std::vector<std::string>& pictures, const std::vector<std::string>& warnings) {
+  const auto& d = rep.detection;
+  const auto& c = rep.closure;
+  nlohmann::json j;
+  j["precision"] = d.precision;
+  j["recall"] = d.recall;
+  j["f1"] = d.f1;
+  j["true_positives"] = d.true_positives;
+  j["false_positives"] = d.false_positives;
+  j["false_negatives"] = d.false_negatives;
+  j["gt_queries"] = d.gt_queries;
+  j["gt_pairs"] = d.gt_pairs;
+  j["max_recall"] = d.max_recall;
+  j["precision_at_max_recall"] = d.precision_at_max_recall;
+  j["f1_max"] = d.f1_max;
+  j["f1_max_threshold"] = d.f1_max_threshold;
+  j["accepted"] = c.accepted;
+  j["correct"] = c.correct;
+  j["closure_precision"] = c.precision;
+  j["closure_recall"] = c.recall;
+  j["closure_recall_correct"] = c.recall_correct;
+  j["stretches"] = c.stretches;
+  j["stretches_closed"] = c.stretches_closed;
+  j["stretches_closed_share"] = c.stretches_closed_share;
+  j["mean_error_before"] = rep.error_before.mean;
+  j["mean_error_after"] = rep.error_after.mean;
+  j["median_error_before"] = rep.error_before.median;
+  j["median_error_after"] = rep.error_after.median;
+  j["loop_translation_error_median"] = rep.loop_translation_error.median;
+  j["loop_translation_error_p95"] = rep.loop_translation_error.p95;
+  j["loop_translation_error_max"] = rep.loop_translation_error.max;
+  j["loop_rotation_error_median_deg"] = rep.loop_rotation_error_deg.median;
+  j["loop_rotation_error_p95_deg"] = rep.loop_rotation_error_deg.p95;
+  j["loop_rotation_error_max_deg"] = rep.loop_rotation_error_deg.max;
+  j["ate_before"] = rep.ate_before;
+  j["ate_after"] = rep.ate_after;
+  j["has_corrected"] = rep.has_corrected;
+  j["keyframes"] = rep.keyframe_utimes.size();
+  j["scans"] = drive_stats.scans;
+  j["loop_events"] = result_stats.loop_events;
+  j["trajectory_revision"] = result_stats.trajectory_revision;
+  j["timings"] = {{"descriptor", timing_json(rep.ms_descriptor)},
+                  {"fourpcs", timing_json(rep.ms_fourpcs)},
+                  {"gicp", timing_json(rep.ms_gicp)},
+                  {"hungarian", timing_json(rep.ms_hungarian)},
+                  {"total", timing_json(rep.ms_total)}};
+  nlohmann::json pr = nlohmann::json::array();
+  for (const auto& p : d.pr_curve) pr.push_back({p.threshold, p.precision, p.recall});
+  j["pr_curve"] = pr;  // [threshold, precision, recall]
+  add_session_json(rep.sessions, spans, j);
+  j["pictures"] = pictures;
+  j["warnings"] = warnings;
+  return j;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"loopd-eval: loop detection, loop closure and pose error of loopd's output against ground truth"};
-  std::string drive, results, plots_dir, tum_dir, kitti_dir;
+  std::vector<std::string> drives, results;
+  std::string plots_dir, tum_dir, kitti_dir;
   bool json = false, quiet = false;
   EvalConfig config;
   EvalChannels ch;
-  app.add_option("--drive", drive, "drive log (lcm-logger) with LIDAR_SCAN, ODOMETRY_POSE, GROUND_TRUTH_POSE")->required()->check(CLI::ExistingFile);
-  app.add_option("--results", results, "loopd's output log with LOOP_EVENT and CORRECTED_TRAJECTORY")->required()->check(CLI::ExistingFile);
+  app.add_option("--drive", drives,
+                 "drive log (lcm-logger) with LIDAR_SCAN, ODOMETRY_POSE, GROUND_TRUTH_POSE; once per session's drive, in order "
+                 "(keyframes find their ground truth by utime in any of them)")
+      ->required()
+      ->take_all()
+      ->check(CLI::ExistingFile);
+  app.add_option("--results", results,
+                 "loopd's output log with LOOP_EVENT and CORRECTED_TRAJECTORY; more than once: loop events of all, the trajectory of "
+                 "the log whose last revision holds the most keyframes")
+      ->required()
+      ->take_all()
+      ->check(CLI::ExistingFile);
+  app.add_option("--mapped-radius", config.sessions.mapped_radius,
+                 "[m] sessions: a place of a later session is in the mapped area within this of an earlier session's keyframe")
+      ->capture_default_str();
+  app.footer(kSessionsHelp);
   app.add_flag("--json", json, "print one JSON object as the last stdout line");
   app.add_option("--plots", plots_dir, "write trajectories and PR-curve pictures (PNG + SVG) into this folder");
   app.add_option("--export-tum", tum_dir, "write ground truth, odometry and corrected keyframe trajectories (TUM)");
@@ -72,25 +260,8 @@ int main(int argc, char** argv) {
 
   EvalInput input;
   LogReadStats drive_stats, result_stats;
-  std::string error;
-  {
-    Progress bar("reading drive  ", 100, !quiet);
-    auto cb = [&](std::int64_t done, std::int64_t total) { bar.update(total > 0 ? done * 100 / total : 0); };
-    if (!read_drive_log(drive, ch, &input, &drive_stats, cb, &error)) {
-      std::cerr << "\nloopd-eval: " << error << "\n";
-      return 1;
-    }
-    bar.finish();
-  }
-  {
-    Progress bar("reading results", 100, !quiet);
-    auto cb = [&](std::int64_t done, std::int64_t total) { bar.update(total > 0 ? done * 100 / total : 0); };
-    if (!read_results_log(results, ch, &input, &result_stats, cb, &error)) {
-      std::cerr << "\nloopd-eval: " << error << "\n";
-      return 1;
-    }
-    bar.finish();
-  }
+  std::vector<DriveSpan> spans;
+  if (!read_logs(drives, results, ch, quiet, &input, &spans, &drive_stats, &result_stats)) return 1;
   const EvalReport rep = evaluate(input, config);
   if (!rep.ok) {
     std::cerr << "loopd-eval: " << rep.error << "\n";
@@ -115,6 +286,8 @@ int main(int argc, char** argv) {
 
   const auto& d = rep.detection;
   const auto& c = rep.closure;
+  if (spans.size() > 1)
+    for (std::size_t i = 0; i < spans.size(); ++i) std::cout << "drive " << i + 1 << ": " << drives[i] << ", " << spans[i].scans << " scans\n";
   std::cout << "drive:   " << drive_stats.scans << " scans, " << drive_stats.ground_truth << " ground-truth poses, " << drive_stats.odometry
             << " odometry poses\n"
             << "results: " << result_stats.loop_events << " loop events, " << result_stats.trajectories << " trajectory revisions (using revision "
@@ -152,6 +325,7 @@ int main(int argc, char** argv) {
   err.add({"max, closest gt pose", fmt(rep.error_before.max), fmt(rep.error_after.max)});
   err.add({"ATE RMSE (SE(3) aligned)", fmt(rep.ate_before), fmt(rep.ate_after)});
   std::cout << err.str() << (rep.has_corrected ? "" : "(no corrected trajectory: 'after' is odometry)\n") << "\n";
+  print_sessions(rep.sessions, spans);
   Table tim({"stage timing [ms]", "median", "p95", "max", "count"});
   const std::pair<const char*, const TimingStats*> stages[] = {{"descriptor", &rep.ms_descriptor},
                                                                {"fourpcs", &rep.ms_fourpcs},
@@ -163,56 +337,6 @@ int main(int argc, char** argv) {
   for (const auto& p : pictures) std::cout << "picture: " << p << "\n";
   for (const auto& w : warnings) std::cout << "warning: " << w << "\n";
 
-  if (json) {
-    nlohmann::json j;
-    j["precision"] = d.precision;
-    j["recall"] = d.recall;
-    j["f1"] = d.f1;
-    j["true_positives"] = d.true_positives;
-    j["false_positives"] = d.false_positives;
-    j["false_negatives"] = d.false_negatives;
-    j["gt_queries"] = d.gt_queries;
-    j["gt_pairs"] = d.gt_pairs;
-    j["max_recall"] = d.max_recall;
-    j["precision_at_max_recall"] = d.precision_at_max_recall;
-    j["f1_max"] = d.f1_max;
-    j["f1_max_threshold"] = d.f1_max_threshold;
-    j["accepted"] = c.accepted;
-    j["correct"] = c.correct;
-    j["closure_precision"] = c.precision;
-    j["closure_recall"] = c.recall;
-    j["closure_recall_correct"] = c.recall_correct;
-    j["stretches"] = c.stretches;
-    j["stretches_closed"] = c.stretches_closed;
-    j["stretches_closed_share"] = c.stretches_closed_share;
-    j["mean_error_before"] = rep.error_before.mean;
-    j["mean_error_after"] = rep.error_after.mean;
-    j["median_error_before"] = rep.error_before.median;
-    j["median_error_after"] = rep.error_after.median;
-    j["loop_translation_error_median"] = rep.loop_translation_error.median;
-    j["loop_translation_error_p95"] = rep.loop_translation_error.p95;
-    j["loop_translation_error_max"] = rep.loop_translation_error.max;
-    j["loop_rotation_error_median_deg"] = rep.loop_rotation_error_deg.median;
-    j["loop_rotation_error_p95_deg"] = rep.loop_rotation_error_deg.p95;
-    j["loop_rotation_error_max_deg"] = rep.loop_rotation_error_deg.max;
-    j["ate_before"] = rep.ate_before;
-    j["ate_after"] = rep.ate_after;
-    j["has_corrected"] = rep.has_corrected;
-    j["keyframes"] = rep.keyframe_utimes.size();
-    j["scans"] = drive_stats.scans;
-    j["loop_events"] = result_stats.loop_events;
-    j["trajectory_revision"] = result_stats.trajectory_revision;
-    j["timings"] = {{"descriptor", timing_json(rep.ms_descriptor)},
-                    {"fourpcs", timing_json(rep.ms_fourpcs)},
-                    {"gicp", timing_json(rep.ms_gicp)},
-                    {"hungarian", timing_json(rep.ms_hungarian)},
-                    {"total", timing_json(rep.ms_total)}};
-    nlohmann::json pr = nlohmann::json::array();
-    for (const auto& p : d.pr_curve) pr.push_back({p.threshold, p.precision, p.recall});
-    j["pr_curve"] = pr;  // [threshold, precision, recall]
-    j["pictures"] = pictures;
-    j["warnings"] = warnings;
-    print_json_line(j);
-  }
+  if (json) print_json_line(report_json(rep, drive_stats, result_stats, spans, pictures, warnings));
   return 0;
 }
