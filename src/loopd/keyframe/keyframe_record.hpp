@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "loopd/descriptor/scan_context.hpp"
 #include "loopd/keyframe/keyframe_key.hpp"
@@ -17,9 +18,12 @@ namespace loopd {
 /// verification (Sec. 4.2-4.3). Computed once, on a worker thread, from the scan alone.
 struct KeyframeFeatures {
   bool ok = false;
-  std::string error;               ///< why the scan is unusable (ok = false)
-  Eigen::VectorXf descriptor;      ///< M2DP signature
-  PlaceDescriptor place;           ///< Scan Context (global retrieval; ok = false when not computed)
+  std::string error;           ///< why the scan is unusable (ok = false)
+  Eigen::VectorXf descriptor;  ///< M2DP signature
+  PlaceDescriptor place;       ///< Scan Context (global retrieval; ok = false when not computed)
+  /// The same scan's Scan Context seen from points beside the sensor (global retrieval's lateral augmentation; query
+  /// only, never stored or indexed).
+  std::vector<PlaceDescriptor> place_shifted;
   PreparedScan prepared;           ///< voxel cloud, normals, segmentation
   double ms_descriptor = 0.0;      ///< [ms]
   double ms_prepare = 0.0;         ///< [ms]

@@ -18,6 +18,10 @@ struct GlobalRetrievalConfig {
   ScanContextConfig descriptor;  ///< the place descriptor every keyframe gets
   RetrievalConfig retrieval;     ///< k-NN over ring keys, then the shift-minimised distance
   int max_verified = 1;          ///< prior-free candidates verified per keyframe, best first
+  /// [m] the query's place descriptor is also computed from points lateral_shift to either side of the sensor (0: off):
+  /// a polar grid is not translation invariant, and a revisit in the other lane or the other direction is seen from a
+  /// few metres aside (Scan Context++'s lateral augmentation, Kim et al., T-RO 2021). The nearest of the three wins.
+  double lateral_shift = 3.5;
   /// [m] a candidate of the query's own session must lie this far back along the drive (nearer ones are the gate's)
   double min_travel_gap = 100.0;
   /// A verified prior-free loop links nothing until a loop of one of the next confirm_window keyframes of its session

@@ -58,13 +58,26 @@ KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
     return f;
   }
   f.descriptor = std::move(d.descriptor);
-  if (config_.retrieval.enabled) f.place = compute_place_descriptor(clean, config_.retrieval.descriptor);
+  if (config_.retrieval.enabled) compute_place_descriptors(clean, f);
   f.ms_descriptor = sw.ms();
   sw.reset();
   f.prepared = prepare_scan(clean, model_ ? &*model_ : nullptr, config_.prepare);
   f.ms_prepare = sw.ms();
   f.ok = true;
   return f;
+}
+
+void LoopDetector::compute_place_descriptors(const PointCloud& scan, KeyframeFeatures& f) const {
+  f.place = compute_place_descriptor(scan, config_.retrieval.descriptor);
+  const double shift = config_.retrieval.lateral_shift;
+  if (!f.place.ok || shift <= 0.0) return;
+  for (const double side : {-1.0, 1.0}) {
+    PointCloud beside = scan;  // the scan as seen from `shift` metres to the side (sensor y axis)
+    const Eigen::Vector3f offset(0.f, static_cast<float>(-side * shift), 0.f);
+    for (Eigen::Vector3f& p : beside.points) p += offset;
+    PlaceDescriptor d = compute_place_descriptor(beside, config_.retrieval.descriptor);
+    if (d.ok) f.place_shifted.push_back(std::move(d));
+  }
 }
 
 /// @brief The verifications of one keyframe's candidates, best first. Live mode starts the others concurrently
@@ -290,6 +303,7 @@ LoopDetector::GatedOutcome LoopDetector::close_gated(const KeyframeRecord& query
   CandidateVerifications verifications = start_verifications(query, ranked, count, T_map_query);
   for (std::size_t i = 0; i < count; ++i) {
     LoopDecision d = make_decision(query, ranked[i], g.radius);
+    g.verified.push_back(ranked[i].match->key);
     const VerifyResult v = verifications.get(i);
     apply_verification(v, query.features->ms_descriptor, d);
     if (v.accepted) {
@@ -305,11 +319,11 @@ LoopDetector::GatedOutcome LoopDetector::close_gated(const KeyframeRecord& query
 }
 
 std::function<bool(const KeyframeKey&)> LoopDetector::prior_free_filter(const KeyframeRecord& query, const GatedOutcome& gated) const {
-  // Not the gate's own candidates; of the query's session only keyframes far back along the drive; of another session
-  // any keyframe the query's session may be tied to.
+  // Not the candidates the gate's path verified; of the query's session only keyframes far back along the drive; of
+  // another session any keyframe the query's session may be tied to.
   return [this, &query, &gated](const KeyframeKey& k) {
-    for (const GateCandidate& c : gated.gated)
-      if (c.key == k) return false;
+    for (const KeyframeKey& v : gated.verified)
+      if (v == k) return false;
     if (k.session == query.key.session) {
       const KeyframeRecord* r = keyframes_.find(k);
       return r && keyframes_between(k, query.key) >= config_.gate.min_index_gap && query.travelled - r->travelled >= config_.retrieval.min_travel_gap;
@@ -322,7 +336,7 @@ void LoopDetector::close_prior_free(const KeyframeRecord& query, const Eigen::Is
                                     const DecisionCallback& on_decided) {
   const std::shared_ptr<const KeyframeFeatures> query_features = full_features(query);
   if (!query_features || !query_features->place.ok) return;
-  const std::vector<PlaceCandidate> places = places_.query(query_features->place, config_.retrieval.retrieval, prior_free_filter(query, gated));
+  const std::vector<PlaceCandidate> places = retrieve_places(*query_features, prior_free_filter(query, gated));
   const std::size_t count = std::min(places.size(), static_cast<std::size_t>(config_.retrieval.max_verified));
   for (std::size_t i = 0; i < count; ++i) {
     const KeyframeRecord* match = keyframes_.find(places[i].key);
@@ -340,7 +354,10 @@ void LoopDetector::close_prior_free(const KeyframeRecord& query, const Eigen::Is
     else
       v.reason = "the keyframe's features could not be read back from the map store";
     apply_verification(v, query.features->ms_descriptor, d);
-    if (v.accepted && confirm_prior_free(query, *match, v, T_map_query, d)) {
+    // A place within the gate of a session tied to the query's has the map's prior: no confirmation (as the gate's own).
+    const bool within_gate = sessions_.tied(match->key.session, query.key.session) && candidate.gate_distance <= gated.radius;
+    if (v.accepted && within_gate) d.reason = "place retrieval within the gate: " + d.reason;
+    if (v.accepted && (within_gate || confirm_prior_free(query, *match, v, T_map_query, d))) {
       out.correction = close_loop(query, candidate, v, std::move(d), out, on_decided);
       return;
     }
@@ -348,6 +365,25 @@ void LoopDetector::close_prior_free(const KeyframeRecord& query, const Eigen::Is
     ++loops_rejected_;
     if (v.accepted) return;  // held for confirmation: the next keyframes decide
   }
+}
+
+std::vector<PlaceCandidate> LoopDetector::retrieve_places(const KeyframeFeatures& query,
+                                                          const std::function<bool(const KeyframeKey&)>& accept) const {
+  // The nearest places to the scan and to its laterally shifted views; each keyframe once, at its nearest.
+  std::vector<PlaceCandidate> all = places_.query(query.place, config_.retrieval.retrieval, accept);
+  for (const PlaceDescriptor& shifted : query.place_shifted) {
+    for (const PlaceCandidate& c : places_.query(shifted, config_.retrieval.retrieval, accept)) {
+      auto same = std::find_if(all.begin(), all.end(), [&](const PlaceCandidate& a) { return a.key == c.key; });
+      if (same == all.end())
+        all.push_back(c);
+      else if (c.place_distance < same->place_distance)
+        *same = c;
+    }
+  }
+  std::sort(all.begin(), all.end(), [](const PlaceCandidate& a, const PlaceCandidate& b) {
+    return a.place_distance < b.place_distance || (a.place_distance == b.place_distance && a.key < b.key);
+  });
+  return all;
 }
 
 bool LoopDetector::confirm_prior_free(const KeyframeRecord& query, const KeyframeRecord& match, const VerifyResult& verification,

@@ -166,7 +166,8 @@ class LoopDetector {
   Eigen::Isometry3d enter_pose_sequence(const KeyframeInput& input);
   LoopDecision make_decision(const KeyframeRecord& query, const RankedCandidate& candidate, double radius);
   struct GatedOutcome {
-    std::vector<GateCandidate> gated;  ///< every keyframe the gate let through
+    std::vector<GateCandidate> gated;   ///< every keyframe the gate let through
+    std::vector<KeyframeKey> verified;  ///< those verified
     double radius = 0.0;
     bool accepted = false;
   };
@@ -174,6 +175,8 @@ class LoopDetector {
                            const DecisionCallback& on_decided);
   void close_prior_free(const KeyframeRecord& query, const Eigen::Isometry3d& T_map_query, const GatedOutcome& gated, DetectorOutput& out,
                         const DecisionCallback& on_decided);
+  void compute_place_descriptors(const PointCloud& scan, KeyframeFeatures& f) const;
+  std::vector<PlaceCandidate> retrieve_places(const KeyframeFeatures& query, const std::function<bool(const KeyframeKey&)>& accept) const;
   std::function<bool(const KeyframeKey&)> prior_free_filter(const KeyframeRecord& query, const GatedOutcome& gated) const;
   bool confirm_prior_free(const KeyframeRecord& query, const KeyframeRecord& match, const VerifyResult& verification,
                           const Eigen::Isometry3d& T_map_query, LoopDecision& decision);
