@@ -118,7 +118,16 @@ trajectory_t sample_trajectory(int n) {
     k.id = i;
     k.orientation[0] = 1.0;
     t.keyframes.push_back(k);
+    t.keyframe_sessions.push_back(i % 2);
   }
+  session_alignment_t a{};
+  a.session = 1;
+  a.anchored = true;
+  a.T_map_session[0] = a.T_map_session[5] = a.T_map_session[10] = a.T_map_session[15] = 1.0;
+  a.T_map_session[3] = 12.5;
+  a.num_keyframes = n / 2;
+  t.sessions.push_back(a);
+  t.num_sessions = 1;
   return t;
 }
 
@@ -368,6 +377,9 @@ TEST_CASE("trajectory_t: full and total_keyframes decode, and a version-1 messag
   t.keyframes[1].position[0] = 2.5;
   t.full = false;
   t.total_keyframes = 40;
+  t.keyframe_sessions.assign(3, 0);  // what an upgrade gives
+  t.sessions.clear();
+  t.num_sessions = 0;
   std::vector<std::uint8_t> b = encode(t);
   trajectory_t out;
   REQUIRE(decode_bounded(b.data(), b.size(), DecodeLimits{}, &out).ok);
@@ -375,8 +387,19 @@ TEST_CASE("trajectory_t: full and total_keyframes decode, and a version-1 messag
   CHECK(out.total_keyframes == 40);
   CHECK(out.keyframes[1].position[0] == 2.5);
 
-  // The last 9 bytes are the appended fields: without them the message is cut short at `full`.
-  std::vector<std::uint8_t> cut(b.begin(), b.end() - 9);
+  // Version 2: before keyframe_sessions (3 x 4 bytes) and num_sessions (4 bytes, no sessions here) were appended; its
+  // own fingerprint (0x32d603706da153a4). It decodes as today's message with every keyframe in session 0.
+  std::vector<std::uint8_t> v2(b.begin(), b.end() - 16);
+  const std::uint8_t v2_hash[8] = {0x32, 0xd6, 0x03, 0x70, 0x6d, 0xa1, 0x53, 0xa4};
+  std::memcpy(v2.data(), v2_hash, 8);
+  CHECK_FALSE(decode_bounded(v2.data(), v2.size(), DecodeLimits{}, &out).ok);
+  REQUIRE(decode_trajectory_v2(v2.data(), v2.size(), DecodeLimits{}, &out).ok);
+  CHECK(encode(out) == b);
+  CHECK(decode_trajectory_v2(b.data(), b.size(), DecodeLimits{}, &out).reason.find("fingerprint") == 0);
+
+  // The 9 bytes before those are version 2's appended fields: without them the message is cut short at `full`.
+  std::vector<std::uint8_t> cut(b.begin(), b.end() - 16 - 9);
+  std::memcpy(cut.data(), b.data(), 8);
   DecodeResult r = decode_bounded(cut.data(), cut.size(), DecodeLimits{}, &out);
   CHECK_FALSE(r.ok);
   CHECK(r.reason.rfind("full: needs 1 bytes", 0) == 0);
@@ -395,6 +418,8 @@ TEST_CASE("trajectory_t: full and total_keyframes decode, and a version-1 messag
   CHECK(upgraded.method == "heuristic+graph");
   REQUIRE(upgraded.keyframes.size() == 3);
   CHECK(upgraded.keyframes[1].position[0] == 2.5);
+  CHECK(upgraded.keyframe_sessions == std::vector<std::int32_t>(3, 0));
+  CHECK(upgraded.num_sessions == 0);
 
   // Today's bytes are not version 1; a damaged version-1 message is refused with the field and offset.
   CHECK(decode_trajectory_v1(b.data(), b.size(), DecodeLimits{}, &upgraded).reason.find("fingerprint") == 0);
@@ -489,4 +514,34 @@ TEST_CASE("a point_cloud_t of version 1 (before per-point times), built from byt
   ev.data = v1;
   CHECK(LogReader::decode(ev, &any));
   CHECK(any.utime == 1234567);
+}
+
+TEST_CASE("loop_event_t: a version-1 event (before sessions and retrieval) decodes as sessions 0 / 0, retrieval gate") {
+  loop_event_t e = sample_event();
+  e.query_id = 12;
+  e.match_id = 3;
+  e.retrieval = "gate";
+  e.place_distance = -1.0;
+  const std::vector<std::uint8_t> b = encode(e);
+  // Version 1 is today's bytes without the appended 4 + 4 + (4 + 5) + 8 bytes, with its own fingerprint.
+  std::vector<std::uint8_t> v1(b.begin(), b.end() - 25);
+  const std::uint8_t v1_hash[8] = {0x0c, 0xa9, 0x21, 0x30, 0x2b, 0x50, 0xcd, 0x2a};
+  std::memcpy(v1.data(), v1_hash, 8);
+  loop_event_t out;
+  CHECK_FALSE(decode_bounded(v1.data(), v1.size(), DecodeLimits{}, &out).ok);
+  REQUIRE(decode_any_loop_event(v1.data(), v1.size(), DecodeLimits{}, &out).ok);
+  CHECK(encode(out) == b);
+  CHECK(out.query_session == 0);
+  CHECK(out.retrieval == "gate");
+  CHECK(out.place_distance == -1.0);
+  // Today's layout goes straight through; a damaged version-1 event is refused with the field.
+  e.query_session = 2;
+  e.retrieval = "global";
+  const std::vector<std::uint8_t> now = encode(e);
+  REQUIRE(decode_any_loop_event(now.data(), now.size(), DecodeLimits{}, &out).ok);
+  CHECK(out.query_session == 2);
+  std::vector<std::uint8_t> cut(v1.begin(), v1.end() - 1);
+  const DecodeResult r = decode_any_loop_event(cut.data(), cut.size(), DecodeLimits{}, &out);
+  CHECK_FALSE(r.ok);
+  CHECK(r.reason.find("ms_descriptor .. ms_total") == 0);
 }

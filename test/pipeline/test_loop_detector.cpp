@@ -72,8 +72,16 @@ TEST_CASE("loop detector: a block lap and a revisit give correct loops, reported
       INFO("keyframe " << d.query.index << " -> " << d.match.index << ": " << d.stage << " (" << d.reason << ")");
       CHECK(d.query == in.key);
       CHECK(d.query.index - d.match.index >= cfg.gate.min_index_gap);
-      CHECK(d.gate_distance <= d.gate_radius);
-      if (d.stage != "descriptor") {
+      if (d.retrieval == "gate") {
+        CHECK(d.gate_distance <= d.gate_radius);
+        CHECK(d.place_distance == -1.0);
+      } else {
+        // Global retrieval: any keyframe far enough back along the drive, by its place descriptor.
+        CHECK(d.retrieval == "global");
+        CHECK(route[static_cast<std::size_t>(d.query.index)] - route[static_cast<std::size_t>(d.match.index)] >= 0.9 * cfg.retrieval.min_travel_gap);
+        CHECK(d.place_distance <= cfg.retrieval.retrieval.max_place_distance);
+      }
+      if (d.stage != "descriptor" && d.retrieval == "gate") {
         ++verified_per_query[d.query.index];
         CHECK(d.descriptor_distance <= cfg.max_descriptor_distance);
       }
