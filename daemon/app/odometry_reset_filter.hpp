@@ -8,9 +8,9 @@ namespace loopd {
 
 /// @brief Keeps the odometry frame continuous across odometry resets. When the odometry process restarts, its
 ///        poses jump back to identity (or to wherever it re-initialises); a jump faster than the vehicle can move
-///        is such a reset. From then on every pose is re-expressed so that the trajectory continues from the last
-///        pose before the reset (zero motion across the reset, the only assumption that needs no other sensor),
-///        and the distance gate and pose graph go on working in one frame. Each reset is counted.
+///        is such a reset, and so is a pose of exactly identity after one that was not (a restart near the origin). From then on every pose is
+///        re-expressed so that the trajectory continues from the last pose before the reset (zero motion across the reset, the only assumption that
+///        needs no other sensor), and the distance gate and pose graph go on working in one frame. Each reset is counted.
 class OdometryResetFilter {
  public:
   struct Config {

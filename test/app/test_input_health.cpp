@@ -151,6 +151,26 @@ TEST_CASE("odometry reset: a jump back to identity continues the trajectory from
   CHECK_FALSE(reset);
 }
 
+TEST_CASE("odometry reset: a restart near the old origin (a jump motion could explain) is told by its exact identity pose") {
+  OdometryResetFilter f;
+  StampedPose p;
+  bool reset = true;
+  for (int i = 0; i < 6; ++i) {  // 5 m/s towards the origin of its frame, heading 0.2 rad
+    p.utime = i * kPeriod;
+    p.T_world_sensor = make_isometry(-3.0 + 0.5 * i, 0.1, 0.0, 0.2);
+    f.apply(p, &reset);
+    CHECK_FALSE(reset);
+  }
+  p.utime += kPeriod;
+  p.T_world_sensor = Eigen::Isometry3d::Identity();  // 0.5 m and 11 deg from the last pose, but exactly identity
+  f.apply(p, &reset);
+  CHECK(reset);
+  p.utime += kPeriod;  // standing still at the new origin is not another reset
+  f.apply(p, &reset);
+  CHECK_FALSE(reset);
+  CHECK(f.resets() == 1);
+}
+
 TEST_CASE("sensor layout: a new lidar is one change; odd single scans and slow scene changes are none") {
   SensorLayoutWatch w;
   for (int i = 0; i < 50; ++i) CHECK_FALSE(w.on_scan(28000 + (i % 7) * 300, 16));

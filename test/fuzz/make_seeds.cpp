@@ -194,6 +194,15 @@ void messages() {
   ev.stage = "gicp";
   ev.reason = "accepted";
   for (int i = 0; i < 16; ++i) ev.T_match_query[i] = (i % 5 == 0) ? 1.0 : 0.0;
+  ev.retrieval = "gate";
+  ev.place_distance = -1.0;
+  const std::string gated = encode(ev);
+  std::string ev_v1 = gated.substr(0, gated.size() - 25);  // version 1: before sessions, retrieval, place_distance
+  for (int i = 0; i < 8; ++i) ev_v1[static_cast<std::size_t>(i)] = static_cast<char>(0x0ca921302b50cd2aULL >> (56 - 8 * i));
+  put("decode_loop_event", "accepted_v1", ev_v1);
+  ev.query_session = 1;
+  ev.retrieval = "global";
+  ev.place_distance = 0.21;
   put("decode_loop_event", "accepted", encode(ev));
   trajectory_t tr{};
   tr.revision = 2;
@@ -206,8 +215,16 @@ void messages() {
     k.position[0] = i;
     k.orientation[0] = 1.0;
     tr.keyframes.push_back(k);
+    tr.keyframe_sessions.push_back(i == 2 ? 1 : 0);
   }
   tr.num_keyframes = 3;
+  session_alignment_t sa{};
+  sa.session = 1;
+  sa.anchored = true;
+  for (int i = 0; i < 16; ++i) sa.T_map_session[i] = (i % 5 == 0) ? 1.0 : 0.0;
+  sa.num_keyframes = 1;
+  tr.sessions.push_back(sa);
+  tr.num_sessions = 1;
   put("decode_trajectory", "three_keyframes", encode(tr));
   status_t st{};
   st.utime = 9;

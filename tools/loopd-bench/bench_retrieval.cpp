@@ -49,7 +49,8 @@ std::vector<PlaceDescriptor> simulated_descriptors(int num_scans, const std::str
 
 /// The table, or with `json` one JSON object as the last line.
 void report(const PlaceIndex& index, std::size_t scans, const RetrievalConfig& config, const std::vector<double>& total_ms,
-            const std::vector<double>& ring_ms, const std::vector<double>& full_ms, std::size_t found, const std::string& sensor, bool json) {
+            const std::vector<double>& ring_ms, const std::vector<double>& full_ms, std::size_t found, const std::string& sensor, int views,
+            bool json) {
   const int queries = static_cast<int>(total_ms.size());
   const tools::Summary total = tools::summarize(total_ms), ring = tools::summarize(ring_ms), full = tools::summarize(full_ms);
   const double ring_share = ring.mean / std::max(1e-12, ring.mean + full.mean);
@@ -57,6 +58,7 @@ void report(const PlaceIndex& index, std::size_t scans, const RetrievalConfig& c
     tools::print_json_line({{"entries", index.size()},
                             {"scans", scans},
                             {"queries", queries},
+                            {"views", views},
                             {"k", config.k},
                             {"ring_candidates", config.ring_candidates},
                             {"median_ms", total.median},
@@ -73,9 +75,9 @@ void report(const PlaceIndex& index, std::size_t scans, const RetrievalConfig& c
     t.add({std::to_string(index.size()), std::to_string(queries), tools::fmt(total.median), tools::fmt(total.p95), tools::fmt(total.max),
            tools::fmt(ring.median) + " (" + tools::fmt(100 * ring_share, 0) + " %)", tools::fmt(full.median),
            tools::fmt(static_cast<double>(index.bytes()) / 1e6, 1)});
-    std::cout << t.str() << "built from " << scans << " simulated " << sensor << " town scans; k " << config.k << ", ring_candidates "
-              << config.ring_candidates << ", a filter rejecting a quarter of the keys; " << tools::fmt(static_cast<double>(found) / queries, 2)
-              << " candidates returned per query\n";
+    std::cout << t.str() << views << " view(s) per query; built from " << scans << " simulated " << sensor << " town scans; k " << config.k
+              << ", ring_candidates " << config.ring_candidates << ", a filter rejecting a quarter of the keys; "
+              << tools::fmt(static_cast<double>(found) / queries, 2) << " candidates returned per query\n";
   }
 }
 
@@ -83,7 +85,7 @@ void report(const PlaceIndex& index, std::size_t scans, const RetrievalConfig& c
 
 int run_bench_retrieval(int argc, char** argv) {
   CLI::App app("loopd-bench retrieval: ms per PlaceIndex query", "loopd-bench retrieval");
-  int entries = 100000, scans = 300, queries = 1000;
+  int entries = 100000, scans = 300, queries = 1000, views = 3;
   std::string sensor = "hdl64";
   RetrievalConfig config;
   bool json = false;
@@ -91,6 +93,7 @@ int run_bench_retrieval(int argc, char** argv) {
   app.add_option("--scans", scans, "simulated town scans the entries are perturbed copies of")->check(CLI::PositiveNumber);
   app.add_option("--queries", queries, "timed queries")->check(CLI::PositiveNumber);
   app.add_option("--sensor", sensor, "lidar model of the simulated scans");
+  app.add_option("--views", views, "views per query (loopd queries 3: the scan and retrieval.lateral_shift to either side)")->check(CLI::Range(1, 8));
   app.add_option("--k", config.k, "RetrievalConfig::k");
   app.add_option("--ring-candidates", config.ring_candidates, "RetrievalConfig::ring_candidates");
   app.add_flag("--json", json, "one JSON object as the last stdout line");
@@ -122,16 +125,19 @@ int run_bench_retrieval(int argc, char** argv) {
   tools::Progress progress("query", queries, !json);
   const auto accept = [](const KeyframeKey& key) { return key.session != 3; };  // a filter that rejects a quarter
   for (int q = 0; q < queries; ++q) {
-    const PlaceDescriptor query = perturbed(bases[static_cast<std::size_t>(q * 7) % bases.size()], rng);
+    std::vector<PlaceDescriptor> query_views;
+    for (int v = 0; v < views; ++v) query_views.push_back(perturbed(bases[static_cast<std::size_t>(q * 7) % bases.size()], rng));
+    std::vector<const PlaceDescriptor*> view_pointers;
+    for (const PlaceDescriptor& v : query_views) view_pointers.push_back(&v);
     PlaceQueryStats stats;
     Stopwatch watch;
-    found += index.query(query, config, accept, &stats).size();
+    found += index.query_views(view_pointers, config, accept, &stats).size();
     total_ms.push_back(watch.ms());
     ring_ms.push_back(stats.ring_key_ms);
     full_ms.push_back(stats.full_distance_ms);
     progress.update(q + 1);
   }
   progress.finish();
-  report(index, bases.size(), config, total_ms, ring_ms, full_ms, found, sensor, json);
+  report(index, bases.size(), config, total_ms, ring_ms, full_ms, found, sensor, views, json);
   return 0;
 }

@@ -319,16 +319,30 @@ LoopDetector::GatedOutcome LoopDetector::close_gated(const KeyframeRecord& query
 }
 
 std::function<bool(const KeyframeKey&)> LoopDetector::prior_free_filter(const KeyframeRecord& query, const GatedOutcome& gated) const {
-  // Not the candidates the gate's path verified; of the query's session only keyframes far back along the drive; of
-  // another session any keyframe the query's session may be tied to.
-  return [this, &query, &gated](const KeyframeKey& k) {
-    for (const KeyframeKey& v : gated.verified)
-      if (v == k) return false;
-    if (k.session == query.key.session) {
-      const KeyframeRecord* r = keyframes_.find(k);
-      return r && keyframes_between(k, query.key) >= config_.gate.min_index_gap && query.travelled - r->travelled >= config_.retrieval.min_travel_gap;
+  // Not the candidates the gate's path verified; of the query's session only keyframes far back along the drive (the
+  // newest such index, found once); of another session any keyframe the query's session may be tied to (per session,
+  // decided once). The index calls this for every stored keyframe: it must stay a few comparisons.
+  std::int64_t newest_allowed = query.key.index - config_.gate.min_index_gap;
+  const std::vector<KeyframeRecord>& records = keyframes_.records();
+  for (auto it = records.rbegin(); it != records.rend() && it->key.session == query.key.session; ++it) {
+    if (query.travelled - it->travelled >= config_.retrieval.min_travel_gap) {  // travel grows along a session
+      newest_allowed = std::min(newest_allowed, it->key.index);
+      break;
     }
-    return !sessions_.cannot_tie(query.key.session, k.session);
+    newest_allowed = std::min(newest_allowed, it->key.index - 1);
+  }
+  std::map<SessionId, bool> other_sessions;
+  for (const SessionAlignment& a : sessions_.alignments({}))
+    if (a.session != query.key.session) other_sessions[a.session] = !sessions_.cannot_tie(query.key.session, a.session);
+  return [query_session = query.key.session, newest_allowed, other_sessions = std::move(other_sessions),
+          verified = gated.verified](const KeyframeKey& k) {
+    if (k.session == query_session) {
+      if (k.index > newest_allowed) return false;
+    } else {
+      const auto it = other_sessions.find(k.session);
+      if (it == other_sessions.end() || !it->second) return false;
+    }
+    return std::find(verified.begin(), verified.end(), k) == verified.end();
   };
 }
 
@@ -369,21 +383,10 @@ void LoopDetector::close_prior_free(const KeyframeRecord& query, const Eigen::Is
 
 std::vector<PlaceCandidate> LoopDetector::retrieve_places(const KeyframeFeatures& query,
                                                           const std::function<bool(const KeyframeKey&)>& accept) const {
-  // The nearest places to the scan and to its laterally shifted views; each keyframe once, at its nearest.
-  std::vector<PlaceCandidate> all = places_.query(query.place, config_.retrieval.retrieval, accept);
-  for (const PlaceDescriptor& shifted : query.place_shifted) {
-    for (const PlaceCandidate& c : places_.query(shifted, config_.retrieval.retrieval, accept)) {
-      auto same = std::find_if(all.begin(), all.end(), [&](const PlaceCandidate& a) { return a.key == c.key; });
-      if (same == all.end())
-        all.push_back(c);
-      else if (c.place_distance < same->place_distance)
-        *same = c;
-    }
-  }
-  std::sort(all.begin(), all.end(), [](const PlaceCandidate& a, const PlaceCandidate& b) {
-    return a.place_distance < b.place_distance || (a.place_distance == b.place_distance && a.key < b.key);
-  });
-  return all;
+  // The nearest places to the scan and to its laterally shifted views, each keyframe at its nearest view.
+  std::vector<const PlaceDescriptor*> views{&query.place};
+  for (const PlaceDescriptor& shifted : query.place_shifted) views.push_back(&shifted);
+  return places_.query_views(views, config_.retrieval.retrieval, accept);
 }
 
 bool LoopDetector::confirm_prior_free(const KeyframeRecord& query, const KeyframeRecord& match, const VerifyResult& verification,

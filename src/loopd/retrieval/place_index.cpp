@@ -2,6 +2,7 @@
 #include "loopd/retrieval/place_index.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <mutex>
 #include <utility>
@@ -54,37 +55,66 @@ std::size_t PlaceIndex::bytes() const {
 
 std::vector<PlaceCandidate> PlaceIndex::query(const PlaceDescriptor& q, const RetrievalConfig& config,
                                               const std::function<bool(const KeyframeKey&)>& accept, PlaceQueryStats* stats) const {
-  Stopwatch watch;
-  std::shared_lock lock(mutex_);
+  return query_views({&q}, config, accept, stats);
+}
+
+bool PlaceIndex::usable(const PlaceDescriptor& q) const {
   const auto nr = static_cast<std::size_t>(num_rings_), ns = static_cast<std::size_t>(num_sectors_);
-  if (config.validate() || !q.ok || keys_.empty() || !compatible(q) || q.ring_key.size() != nr || q.bins.size() != nr * ns ||
-      q.column_norms.size() != ns)
-    return {};
-  // Exact ring-key k-NN over the accepted entries (Kim & Kim 2018 use a k-d tree; a flat scan is exact and as fast here).
+  return q.ok && compatible(q) && q.ring_key.size() == nr && q.bins.size() == nr * ns && q.column_norms.size() == ns;
+}
+
+std::vector<std::pair<float, std::size_t>> PlaceIndex::nearest_ring_keys(const std::vector<const PlaceDescriptor*>& views, std::size_t m,
+                                                                         const std::function<bool(const KeyframeKey&)>& accept,
+                                                                         std::size_t* accepted) const {
+  // Exact ring-key k-NN over the accepted entries (Kim & Kim 2018 use a k-d tree; a flat scan is exact and as fast
+  // here), each entry at its nearest view: the ring keys are read once however many views there are.
+  const auto nr = static_cast<std::size_t>(num_rings_);
   std::vector<std::pair<float, std::size_t>> nearest;
   nearest.reserve(keys_.size());
-  const float* key_q = q.ring_key.data();
   for (std::size_t i = 0; i < keys_.size(); ++i) {
     if (accept && !accept(keys_[i])) continue;
     const float* key_i = ring_keys_.data() + i * nr;
-    float d2 = 0.f;
-    for (std::size_t r = 0; r < nr; ++r) d2 += (key_i[r] - key_q[r]) * (key_i[r] - key_q[r]);
-    nearest.emplace_back(d2, i);
+    float best = std::numeric_limits<float>::max();
+    for (const PlaceDescriptor* v : views) {
+      const float* key_q = v->ring_key.data();
+      float d2 = 0.f;
+      for (std::size_t r = 0; r < nr; ++r) d2 += (key_i[r] - key_q[r]) * (key_i[r] - key_q[r]);
+      best = std::min(best, d2);
+    }
+    nearest.emplace_back(best, i);
   }
-  const std::size_t accepted = nearest.size();
-  const std::size_t m = std::min(nearest.size(), static_cast<std::size_t>(config.ring_candidates));
+  *accepted = nearest.size();
+  m = std::min(nearest.size(), m);
   std::nth_element(nearest.begin(), nearest.begin() + static_cast<std::ptrdiff_t>(m), nearest.end());
   nearest.resize(m);
+  return nearest;
+}
+
+std::vector<PlaceCandidate> PlaceIndex::query_views(const std::vector<const PlaceDescriptor*>& views, const RetrievalConfig& config,
+                                                    const std::function<bool(const KeyframeKey&)>& accept, PlaceQueryStats* stats) const {
+  Stopwatch watch;
+  std::shared_lock lock(mutex_);
+  const auto nr = static_cast<std::size_t>(num_rings_), ns = static_cast<std::size_t>(num_sectors_);
+  if (config.validate() || views.empty() || keys_.empty()) return {};
+  for (const PlaceDescriptor* v : views)
+    if (!v || !usable(*v)) return {};
+  std::size_t accepted = 0;
+  const auto nearest = nearest_ring_keys(views, static_cast<std::size_t>(config.ring_candidates), accept, &accepted);
   const double ring_ms = watch.ms();
 
-  std::vector<float> qn(nr * ns);
-  detail::normalised_columns(q, qn.data());
+  std::vector<std::vector<float>> normalised(views.size(), std::vector<float>(nr * ns));
+  for (std::size_t v = 0; v < views.size(); ++v) detail::normalised_columns(*views[v], normalised[v].data());
   std::vector<PlaceCandidate> out;
-  out.reserve(m);
+  out.reserve(nearest.size());
   for (const auto& [d2, i] : nearest) {
-    const PlaceMatch match = detail::place_distance_normalised(q, qn.data(), bins_.data() + i * nr * ns, column_norms_.data() + i * ns);
-    if (match.distance > config.max_place_distance) continue;
-    out.push_back(PlaceCandidate{keys_[i], std::sqrt(d2), match.distance, match.yaw_match_query});
+    PlaceMatch best;
+    for (std::size_t v = 0; v < views.size(); ++v) {
+      const PlaceMatch match =
+          detail::place_distance_normalised(*views[v], normalised[v].data(), bins_.data() + i * nr * ns, column_norms_.data() + i * ns);
+      if (v == 0 || match.distance < best.distance) best = match;
+    }
+    if (best.distance > config.max_place_distance) continue;
+    out.push_back(PlaceCandidate{keys_[i], std::sqrt(d2), best.distance, best.yaw_match_query});
   }
   std::sort(out.begin(), out.end(), [](const PlaceCandidate& a, const PlaceCandidate& b) {
     return a.place_distance < b.place_distance || (a.place_distance == b.place_distance && a.key < b.key);
@@ -92,7 +122,7 @@ std::vector<PlaceCandidate> PlaceIndex::query(const PlaceDescriptor& q, const Re
   if (out.size() > static_cast<std::size_t>(config.k)) out.resize(static_cast<std::size_t>(config.k));
   if (stats) {
     stats->accepted = accepted;
-    stats->compared = m;
+    stats->compared = nearest.size();
     stats->ring_key_ms = ring_ms;
     stats->full_distance_ms = watch.ms() - ring_ms;
   }

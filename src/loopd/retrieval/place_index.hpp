@@ -7,6 +7,7 @@
 #include <optional>
 #include <shared_mutex>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "loopd/descriptor/scan_context.hpp"
@@ -62,9 +63,17 @@ class PlaceIndex {
   /// config.ring_candidates nearest. Empty when q is not ok, differs in shape, or config does not validate.
   std::vector<PlaceCandidate> query(const PlaceDescriptor& q, const RetrievalConfig& config,
                                     const std::function<bool(const KeyframeKey&)>& accept = {}, PlaceQueryStats* stats = nullptr) const;
+  /// @brief The same for several views of one place (e.g. a scan seen from beside the sensor too): each entry is ranked
+  /// at its nearest view, in one pass over the ring keys, and its place_distance is its nearest view's. One view:
+  /// exactly query().
+  std::vector<PlaceCandidate> query_views(const std::vector<const PlaceDescriptor*>& views, const RetrievalConfig& config,
+                                          const std::function<bool(const KeyframeKey&)>& accept = {}, PlaceQueryStats* stats = nullptr) const;
 
  private:
   bool compatible(const PlaceDescriptor& d) const;
+  bool usable(const PlaceDescriptor& q) const;
+  std::vector<std::pair<float, std::size_t>> nearest_ring_keys(const std::vector<const PlaceDescriptor*>& views, std::size_t m,
+                                                               const std::function<bool(const KeyframeKey&)>& accept, std::size_t* accepted) const;
 
   mutable std::shared_mutex mutex_;
   int num_rings_ = 0, num_sectors_ = 0;
