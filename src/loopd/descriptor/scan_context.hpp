@@ -58,6 +58,9 @@ struct PlaceMatch {
 /// @brief The Scan Context of `cloud` (sensor frame, z up). Non-finite points are skipped. Never throws: an invalid
 /// config or fewer than config.min_points usable points gives ok == false with the reason.
 PlaceDescriptor compute_place_descriptor(const PointCloud& cloud, const ScanContextConfig& config = {});
+/// @brief The same seen from `origin` (x, y in the sensor frame; axes as the sensor's): the place as a sensor there would
+/// bin it (global retrieval's lateral augmentation).
+PlaceDescriptor compute_place_descriptor(const PointCloud& cloud, const ScanContextConfig& config, const Eigen::Vector2f& origin);
 
 /// @brief Kim & Kim 2018, Eq. (5)-(6): d(I_q, I_c) = min over circular sector shifts of the mean over columns of
 /// (1 - cos(c_q^j, c_c^j)). Columns empty in both descriptors are left out of the mean; a column empty in only one of

@@ -71,11 +71,8 @@ void LoopDetector::compute_place_descriptors(const PointCloud& scan, KeyframeFea
   f.place = compute_place_descriptor(scan, config_.retrieval.descriptor);
   const double shift = config_.retrieval.lateral_shift;
   if (!f.place.ok || shift <= 0.0) return;
-  for (const double side : {-1.0, 1.0}) {
-    PointCloud beside = scan;  // the scan as seen from `shift` metres to the side (sensor y axis)
-    const Eigen::Vector3f offset(0.f, static_cast<float>(-side * shift), 0.f);
-    for (Eigen::Vector3f& p : beside.points) p += offset;
-    PlaceDescriptor d = compute_place_descriptor(beside, config_.retrieval.descriptor);
+  for (const float side : {-1.f, 1.f}) {  // the scan as seen from `shift` metres to either side (sensor y axis)
+    PlaceDescriptor d = compute_place_descriptor(scan, config_.retrieval.descriptor, Eigen::Vector2f(0.f, side * static_cast<float>(shift)));
     if (d.ok) f.place_shifted.push_back(std::move(d));
   }
 }
@@ -319,9 +316,12 @@ LoopDetector::GatedOutcome LoopDetector::close_gated(const KeyframeRecord& query
 }
 
 std::function<bool(const KeyframeKey&)> LoopDetector::prior_free_filter(const KeyframeRecord& query, const GatedOutcome& gated) const {
-  // Not the candidates the gate's path verified; of the query's session only keyframes far back along the drive (the
-  // newest such index, found once); of another session any keyframe the query's session may be tied to (per session,
-  // decided once). The index calls this for every stored keyframe: it must stay a few comparisons.
+  // Not the candidates the gate's path verified. Of sessions in the query's frame (its own and those tied to it) only
+  // once the gate's radius is at its clamp, where drift may outgrow the gate (before that the gate's own candidates
+  // are compared, retrieve_places()), and of the query's session only keyframes far back along the drive (the newest
+  // such index, found once); of another session any keyframe the query's session may be tied to (decided once per
+  // session). The index calls this for every stored keyframe: it must stay a few comparisons.
+  const bool beyond_gate = gated.radius >= config_.gate.max_radius;
   std::int64_t newest_allowed = query.key.index - config_.gate.min_index_gap;
   const std::vector<KeyframeRecord>& records = keyframes_.records();
   for (auto it = records.rbegin(); it != records.rend() && it->key.session == query.key.session; ++it) {
@@ -333,11 +333,12 @@ std::function<bool(const KeyframeKey&)> LoopDetector::prior_free_filter(const Ke
   }
   std::map<SessionId, bool> other_sessions;
   for (const SessionAlignment& a : sessions_.alignments({}))
-    if (a.session != query.key.session) other_sessions[a.session] = !sessions_.cannot_tie(query.key.session, a.session);
-  return [query_session = query.key.session, newest_allowed, other_sessions = std::move(other_sessions),
+    if (a.session != query.key.session)
+      other_sessions[a.session] = sessions_.tied(query.key.session, a.session) ? beyond_gate : !sessions_.cannot_tie(query.key.session, a.session);
+  return [query_session = query.key.session, newest_allowed, beyond_gate, other_sessions = std::move(other_sessions),
           verified = gated.verified](const KeyframeKey& k) {
     if (k.session == query_session) {
-      if (k.index > newest_allowed) return false;
+      if (!beyond_gate || k.index > newest_allowed) return false;
     } else {
       const auto it = other_sessions.find(k.session);
       if (it == other_sessions.end() || !it->second) return false;
@@ -350,7 +351,7 @@ void LoopDetector::close_prior_free(const KeyframeRecord& query, const Eigen::Is
                                     const DecisionCallback& on_decided) {
   const std::shared_ptr<const KeyframeFeatures> query_features = full_features(query);
   if (!query_features || !query_features->place.ok) return;
-  const std::vector<PlaceCandidate> places = retrieve_places(*query_features, prior_free_filter(query, gated));
+  const std::vector<PlaceCandidate> places = retrieve_places(*query_features, gated, prior_free_filter(query, gated));
   const std::size_t count = std::min(places.size(), static_cast<std::size_t>(config_.retrieval.max_verified));
   for (std::size_t i = 0; i < count; ++i) {
     const KeyframeRecord* match = keyframes_.find(places[i].key);
@@ -381,12 +382,22 @@ void LoopDetector::close_prior_free(const KeyframeRecord& query, const Eigen::Is
   }
 }
 
-std::vector<PlaceCandidate> LoopDetector::retrieve_places(const KeyframeFeatures& query,
+std::vector<PlaceCandidate> LoopDetector::retrieve_places(const KeyframeFeatures& query, const GatedOutcome& gated,
                                                           const std::function<bool(const KeyframeKey&)>& accept) const {
-  // The nearest places to the scan and to its laterally shifted views, each keyframe at its nearest view.
+  // The nearest places among the keyframes `accept` lets through, and among the gate's candidates its path did not
+  // verify (M2DP ranked them out), to the scan and to its laterally shifted views; each keyframe once, nearest first.
   std::vector<const PlaceDescriptor*> views{&query.place};
   for (const PlaceDescriptor& shifted : query.place_shifted) views.push_back(&shifted);
-  return places_.query_views(views, config_.retrieval.retrieval, accept);
+  std::vector<PlaceCandidate> all = places_.query_views(views, config_.retrieval.retrieval, accept);
+  std::vector<KeyframeKey> unverified;
+  for (const GateCandidate& c : gated.gated)
+    if (std::find(gated.verified.begin(), gated.verified.end(), c.key) == gated.verified.end()) unverified.push_back(c.key);
+  for (const PlaceCandidate& c : places_.compare(views, unverified, config_.retrieval.retrieval.max_place_distance))
+    if (std::none_of(all.begin(), all.end(), [&](const PlaceCandidate& a) { return a.key == c.key; })) all.push_back(c);
+  std::sort(all.begin(), all.end(), [](const PlaceCandidate& a, const PlaceCandidate& b) {
+    return a.place_distance < b.place_distance || (a.place_distance == b.place_distance && a.key < b.key);
+  });
+  return all;
 }
 
 bool LoopDetector::confirm_prior_free(const KeyframeRecord& query, const KeyframeRecord& match, const VerifyResult& verification,

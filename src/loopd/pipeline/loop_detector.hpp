@@ -176,7 +176,8 @@ class LoopDetector {
   void close_prior_free(const KeyframeRecord& query, const Eigen::Isometry3d& T_map_query, const GatedOutcome& gated, DetectorOutput& out,
                         const DecisionCallback& on_decided);
   void compute_place_descriptors(const PointCloud& scan, KeyframeFeatures& f) const;
-  std::vector<PlaceCandidate> retrieve_places(const KeyframeFeatures& query, const std::function<bool(const KeyframeKey&)>& accept) const;
+  std::vector<PlaceCandidate> retrieve_places(const KeyframeFeatures& query, const GatedOutcome& gated,
+                                              const std::function<bool(const KeyframeKey&)>& accept) const;
   std::function<bool(const KeyframeKey&)> prior_free_filter(const KeyframeRecord& query, const GatedOutcome& gated) const;
   bool confirm_prior_free(const KeyframeRecord& query, const KeyframeRecord& match, const VerifyResult& verification,
                           const Eigen::Isometry3d& T_map_query, LoopDecision& decision);

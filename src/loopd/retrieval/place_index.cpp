@@ -36,6 +36,7 @@ bool PlaceIndex::add(const KeyframeKey& key, PlaceDescriptor d) {
   } else if (!compatible(d)) {
     return false;
   }
+  slot_of_.emplace(key, keys_.size());
   keys_.push_back(key);
   ring_keys_.insert(ring_keys_.end(), d.ring_key.begin(), d.ring_key.end());
   bins_.insert(bins_.end(), d.bins.begin(), d.bins.end());
@@ -125,6 +126,31 @@ std::vector<PlaceCandidate> PlaceIndex::query_views(const std::vector<const Plac
     stats->compared = nearest.size();
     stats->ring_key_ms = ring_ms;
     stats->full_distance_ms = watch.ms() - ring_ms;
+  }
+  return out;
+}
+
+std::vector<PlaceCandidate> PlaceIndex::compare(const std::vector<const PlaceDescriptor*>& views, const std::vector<KeyframeKey>& keys,
+                                                float max_place_distance) const {
+  std::shared_lock lock(mutex_);
+  const auto nr = static_cast<std::size_t>(num_rings_), ns = static_cast<std::size_t>(num_sectors_);
+  std::vector<PlaceCandidate> out;
+  if (views.empty() || keys_.empty()) return out;
+  for (const PlaceDescriptor* v : views)
+    if (!v || !usable(*v)) return out;
+  std::vector<std::vector<float>> normalised(views.size(), std::vector<float>(nr * ns));
+  for (std::size_t v = 0; v < views.size(); ++v) detail::normalised_columns(*views[v], normalised[v].data());
+  for (const KeyframeKey& key : keys) {
+    const auto it = slot_of_.find(key);
+    if (it == slot_of_.end()) continue;
+    const std::size_t i = it->second;
+    PlaceMatch best;
+    for (std::size_t v = 0; v < views.size(); ++v) {
+      const PlaceMatch match =
+          detail::place_distance_normalised(*views[v], normalised[v].data(), bins_.data() + i * nr * ns, column_norms_.data() + i * ns);
+      if (v == 0 || match.distance < best.distance) best = match;
+    }
+    if (best.distance <= max_place_distance) out.push_back(PlaceCandidate{key, -1.f, best.distance, best.yaw_match_query});
   }
   return out;
 }

@@ -7,6 +7,7 @@
 #include <optional>
 #include <shared_mutex>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -68,6 +69,10 @@ class PlaceIndex {
   /// exactly query().
   std::vector<PlaceCandidate> query_views(const std::vector<const PlaceDescriptor*>& views, const RetrievalConfig& config,
                                           const std::function<bool(const KeyframeKey&)>& accept = {}, PlaceQueryStats* stats = nullptr) const;
+  /// @brief The place distance (nearest view) of the named keyframes, those within max_place_distance, in the order
+  /// given (ring_key_distance -1: not compared); keys not in the index are left out.
+  std::vector<PlaceCandidate> compare(const std::vector<const PlaceDescriptor*>& views, const std::vector<KeyframeKey>& keys,
+                                      float max_place_distance) const;
 
  private:
   bool compatible(const PlaceDescriptor& d) const;
@@ -79,9 +84,10 @@ class PlaceIndex {
   int num_rings_ = 0, num_sectors_ = 0;
   float max_range_ = 0.f, height_offset_ = 0.f, height_step_ = 0.f;
   std::vector<KeyframeKey> keys_;
-  std::vector<float> ring_keys_;     ///< size() x num_rings_
-  std::vector<std::uint8_t> bins_;   ///< size() x (num_sectors_ x num_rings_), sector-major per entry
-  std::vector<float> column_norms_;  ///< size() x num_sectors_
+  std::unordered_map<KeyframeKey, std::size_t, KeyframeKeyHash> slot_of_;  ///< position of each key
+  std::vector<float> ring_keys_;                                           ///< size() x num_rings_
+  std::vector<std::uint8_t> bins_;                                         ///< size() x (num_sectors_ x num_rings_), sector-major per entry
+  std::vector<float> column_norms_;                                        ///< size() x num_sectors_
 };
 
 }  // namespace loopd
