@@ -24,6 +24,9 @@ LoopRecord to_loop_record(const LoopDecision& d) {
   r.degeneracy = d.degeneracy;
   r.T_match_query = d.T_match_query;
   r.information = d.information;
+  r.retrieval = d.retrieval;
+  r.place_distance = d.place_distance;
+  r.confirmed = d.confirmed;
   return r;
 }
 
@@ -49,6 +52,9 @@ LoopDecision to_loop_decision(const LoopRecord& r) {
   d.degeneracy = r.degeneracy;
   d.T_match_query = r.T_match_query;
   d.information = r.information;
+  d.retrieval = r.retrieval;
+  d.place_distance = r.place_distance;
+  d.confirmed = r.confirmed;
   return d;
 }
 

@@ -28,6 +28,9 @@ struct LoopConstraint {
   /// (core/information.hpp). All zero = unknown (the pose graph then uses PoseGraphConfig::loop_translation_sigma /
   /// loop_rotation_sigma).
   Information6d information = Information6d::Zero();
+  /// false: the pose graph takes this loop without its robust kernel (a loop already proven an inlier, e.g. confirmed
+  /// by the loops of the next keyframes); true: robust (PoseGraphConfig::loop_loss).
+  bool robust = true;
 };
 
 /// @brief Settings of the heuristic correction (Vlaminck 2019, Sec. 4.4).

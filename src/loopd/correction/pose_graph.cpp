@@ -156,7 +156,7 @@ void add_loop_edges(const std::vector<const LoopConstraint*>& loops, const std::
     // as exact next to the loop's own uncertainty).
     e.Z = to_node(odometry_poses, layout, m).inverse() * l->T_match_query * to_node(odometry_poses, layout, q);
     e.sqrt_info = loop_sqrt_info(l->information, config);
-    e.robust = true;
+    e.robust = l->robust;
     edges.push_back(e);
   }
 }

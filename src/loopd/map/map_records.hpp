@@ -46,6 +46,9 @@ struct LoopRecord {
   double lcp_fraction = -1.0, icp_residual = -1.0, icp_fitness = -1.0, hungarian_consistency = -1.0, degeneracy = -1.0;
   Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
   Information6d information = Information6d::Zero();  ///< zero for rejected decisions
+  std::string retrieval = "gate";                     ///< gate or global
+  double place_distance = -1.0;                       ///< Scan Context distance of a global candidate
+  bool confirmed = false;                             ///< a prior-free loop confirmed by the next keyframes (no robust kernel)
 };
 
 /// @brief The correction state after a revision: enough to publish the corrected map again and resume correcting.

@@ -202,7 +202,10 @@ CREATE TABLE loops (
   gate_distance REAL, gate_radius REAL, descriptor_distance REAL, lcp_fraction REAL, icp_residual REAL,
   icp_fitness REAL, hungarian_consistency REAL, degeneracy REAL,
   T_match_query BLOB NOT NULL,
-  information BLOB NOT NULL
+  information BLOB NOT NULL,
+  retrieval TEXT NOT NULL DEFAULT 'gate',
+  place_distance REAL NOT NULL DEFAULT -1,
+  confirmed INTEGER NOT NULL DEFAULT 0
 );
 CREATE INDEX loops_by_status ON loops (status, event_id);
 CREATE TABLE correction (
@@ -307,7 +310,7 @@ const char* sql_of(int s) {
       "SELECT has_features, features FROM keyframes WHERE session = ? AND idx = ?",
       "SELECT 1 FROM keyframes WHERE session = ? AND idx = ?",
       "UPDATE keyframes SET decided = 1 WHERE session = ? AND idx = ?",
-      "INSERT INTO loops VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+      "INSERT INTO loops VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
       "SELECT * FROM loops WHERE ?1 = 0 OR status = 1 ORDER BY event_id",
       ("INSERT OR REPLACE INTO correction (id, revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state) "
        "VALUES (1, ?, ?, ?, ?, ?, ?, ?)"),
@@ -337,8 +340,13 @@ StoreStatus SqliteMapStore::create_or_check_schema() {
   if (!version.ok()) return version.status;
   if (version.value == kSqliteMapSchemaVersion) return {};
   if (version.value == 1 && sqlite3_db_readonly(db_, "main") != 1) {
-    // Version 1 -> 2: the place descriptor column (keyframes stored before it have none: not found by global retrieval).
-    return exec("BEGIN IMMEDIATE; ALTER TABLE keyframes ADD COLUMN place BLOB; PRAGMA user_version = 2; COMMIT;", "upgrade the schema 1 -> 2");
+    // Version 1 -> 2: the place descriptor (keyframes stored before it have none: not found by global retrieval) and how
+    // each loop was found.
+    return exec(
+        "BEGIN IMMEDIATE; ALTER TABLE keyframes ADD COLUMN place BLOB; ALTER TABLE loops ADD COLUMN retrieval TEXT NOT NULL DEFAULT 'gate'; "
+        "ALTER TABLE loops ADD COLUMN place_distance REAL NOT NULL DEFAULT -1; ALTER TABLE loops ADD COLUMN confirmed INTEGER NOT NULL DEFAULT 0; "
+        "PRAGMA user_version = 2; COMMIT;",
+        "upgrade the schema 1 -> 2");
   }
   if (version.value != 0) {
     return {Code::kCorrupt, "map " + path_ + " has schema version " + std::to_string(version.value) + ", this loopd reads " +
@@ -565,7 +573,7 @@ StoreStatus SqliteMapStore::put_loop(const LoopRecord& l) {
   use.f64(l.hungarian_consistency).f64(l.degeneracy);
   std::vector<std::uint8_t> information;
   append_doubles(information, l.information.data(), 36);
-  use.blob(pose_blob(l.T_match_query)).blob(information);
+  use.blob(pose_blob(l.T_match_query)).blob(information).text(l.retrieval).f64(l.place_distance).i64(l.confirmed ? 1 : 0);
   return done(use, "put loop event " + std::to_string(l.event_id));
 }
 
@@ -589,6 +597,9 @@ StoreStatus SqliteMapStore::read_loop(const Use& row, LoopRecord& l) const {
   }
   l.T_match_query = read_pose(pose);
   std::memcpy(l.information.data(), info, ni);
+  l.retrieval = row.text_at(20);
+  l.place_distance = row.f64_at(21);
+  l.confirmed = row.i64_at(22) != 0;
   return {};
 }
 

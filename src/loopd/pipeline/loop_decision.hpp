@@ -24,6 +24,9 @@ struct LoopDecision {
   double lcp_fraction = -1.0, icp_residual = -1.0, icp_fitness = -1.0, hungarian_consistency = -1.0, degeneracy = -1.0;
   std::string retrieval = "gate";  ///< gate (the distance gate's candidates) or global (place retrieval, no pose prior)
   double place_distance = -1.0;    ///< Scan Context distance of a global candidate (-1: not used)
+  /// A prior-free loop that the next keyframes confirmed: its loop edge gets no robust kernel (not published). After
+  /// large drift a lone true loop would lose to the odometry under the kernel; the confirmation is its outlier test.
+  bool confirmed = false;
   Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
   Information6d information = Information6d::Zero();  ///< of T_match_query (verification's GICP Hessian); not published
   double ms_descriptor = 0.0, ms_fourpcs = 0.0, ms_gicp = 0.0, ms_hungarian = 0.0, ms_total = 0.0;

@@ -230,7 +230,8 @@ bool LoopDetector::guided(const KeyframeKey& query) const {
 
 std::optional<CorrectionOutput> LoopDetector::close_loop(const KeyframeRecord& query, const RankedCandidate& match, const VerifyResult& verification,
                                                          LoopDecision decision, DetectorOutput& out, const DecisionCallback& on_decided) {
-  const LoopConstraint loop = to_loop_constraint(verification, pose_index(query.key), pose_index(match.match->key));
+  LoopConstraint loop = to_loop_constraint(verification, pose_index(query.key), pose_index(match.match->key));
+  loop.robust = !decision.confirmed;
   const std::optional<std::string> refused = corrector_.check_loop(loop);
   if (refused) decision.reason = "accepted, but the correction refused the loop: " + *refused;
   const std::int64_t event_id = decision.event_id;
@@ -416,6 +417,7 @@ bool LoopDetector::confirm_prior_free(const KeyframeRecord& query, const Keyfram
     std::snprintf(why, sizeof why, "prior-free loop confirmed by event %lld (keyframe %s): the placements agree within %.3f m / %.2f deg",
                   static_cast<long long>(agreed->event_id), to_string(agreed->query).c_str(), translation, rotation);
     decision.reason = why;
+    decision.confirmed = true;
     return true;
   }
   decision.status = LoopStatus::kRejected;

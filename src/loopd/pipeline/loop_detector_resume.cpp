@@ -31,6 +31,7 @@ LoopConstraint LoopDetector::count_restored(const LoopDecision& decision, const 
   loop.match_index = pose_index(decision.match);
   loop.T_match_query = decision.T_match_query;
   loop.information = information;
+  loop.robust = !decision.confirmed;
   return loop;
 }
 
