@@ -233,6 +233,7 @@ void bind_retrieval_and_sessions(Binder& b, LoopDetectorConfig& d, SessionPolicy
   b.field("retrieval.max_verified", r.max_verified);
   b.field("retrieval.lateral_shift", r.lateral_shift);
   b.field("retrieval.min_travel_gap", r.min_travel_gap);
+  b.field("retrieval.max_drift_fraction", r.max_drift_fraction);
   b.field("retrieval.confirm_window", r.confirm_window);
   b.field("retrieval.confirm_translation", r.confirm_translation);
   b.field("retrieval.confirm_rotation_deg", r.confirm_rotation_deg);

@@ -8,6 +8,7 @@ std::optional<std::string> GlobalRetrievalConfig::validate() const {
   if (auto e = descriptor.validate()) return "retrieval.descriptor: " + *e;
   if (auto e = retrieval.validate()) return "retrieval: " + *e;
   if (max_verified < 1) return "retrieval.max_verified must be >= 1";
+  if (!(max_drift_fraction > 0.0 && max_drift_fraction <= 10.0)) return "retrieval.max_drift_fraction must be in (0, 10]";
   if (!(lateral_shift >= 0.0 && lateral_shift <= 50.0)) return "retrieval.lateral_shift must be in [0, 50] [m]";
   if (!(min_travel_gap >= 0.0 && std::isfinite(min_travel_gap))) return "retrieval.min_travel_gap must be a finite number >= 0 [m]";
   if (confirm_window < 1) return "retrieval.confirm_window must be >= 1";

@@ -22,6 +22,11 @@ struct GlobalRetrievalConfig {
   /// a polar grid is not translation invariant, and a revisit in the other lane or the other direction is seen from a
   /// few metres aside (Scan Context++'s lateral augmentation, Kim et al., T-RO 2021). The nearest of the three wins.
   double lateral_shift = 3.5;
+  /// A place in the query's own frame (its session, or one tied to it) farther from the query's corrected position than
+  /// this share of the distance travelled since the last loop is not verified: odometry drifting more is not odometry
+  /// (1.5x the 10 % the gate assumes; the ring route with 3 deg / 100 m heading and 3 % scale bias drifts 11 % by its
+  /// first revisit, and on seed 2 a look-alike street 24 % away passed verification on 5 consecutive keyframes).
+  double max_drift_fraction = 0.15;
   /// [m] a candidate of the query's own session must lie this far back along the drive (nearer ones are the gate's)
   double min_travel_gap = 100.0;
   /// A verified prior-free loop links nothing until a loop of one of the next confirm_window keyframes of its session

@@ -353,12 +353,16 @@ void LoopDetector::close_prior_free(const KeyframeRecord& query, const Eigen::Is
   const std::shared_ptr<const KeyframeFeatures> query_features = full_features(query);
   if (!query_features || !query_features->place.ok) return;
   const std::vector<PlaceCandidate> places = retrieve_places(*query_features, gated, prior_free_filter(query, gated));
-  const std::size_t count = std::min(places.size(), static_cast<std::size_t>(config_.retrieval.max_verified));
-  for (std::size_t i = 0; i < count; ++i) {
+  // In the query's own frame the odometry still bounds the drift since the last loop: a place farther off is another.
+  const double max_correction = std::max(gated.radius, config_.retrieval.max_drift_fraction * (travelled_ - travelled_at_last_loop_));
+  std::size_t verified = 0;
+  for (std::size_t i = 0; i < places.size() && verified < static_cast<std::size_t>(config_.retrieval.max_verified); ++i) {
     const KeyframeRecord* match = keyframes_.find(places[i].key);
     if (!match || !match->features) continue;
     RankedCandidate candidate{match, (corrected(match->key).translation() - T_map_query.translation()).norm(),
                               (match->features->descriptor - query.features->descriptor).norm()};
+    if (sessions_.tied(match->key.session, query.key.session) && candidate.gate_distance > max_correction) continue;
+    ++verified;
     LoopDecision d = make_decision(query, candidate, gated.radius);
     d.retrieval = "global";
     d.place_distance = places[i].place_distance;
