@@ -328,3 +328,46 @@ TEST_CASE("max_nodes bounds the graph of a long drive; the coarser graph still c
     CHECK(r < 1.0 * kDeg);
   }
 }
+
+TEST_CASE("segments: a second odometry segment moves rigidly onto its first loop, the first stays; later loops keep both") {
+  auto yaw_pose = [](double x, double y, double yaw) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(x, y, 0.0);
+    T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    return T;
+  };
+  // Truth: segment A drives 2 m steps east along y = 0; segment B (another session) drives 2 m steps west along y = 1,
+  // its odometry in its own frame (origin at its start, heading west = its +x). B is stitched on where A ended.
+  std::vector<Eigen::Isometry3d> truth;
+  for (int i = 0; i < 60; ++i) truth.push_back(yaw_pose(2.0 * i, 0.0, 0.0));
+  for (int i = 0; i < 40; ++i) truth.push_back(yaw_pose(100.0 - 2.0 * i, 1.0, M_PI));
+  for (const auto method : {CorrectionMethod::kHeuristicThenGraph, CorrectionMethod::kHeuristic, CorrectionMethod::kGraph}) {
+    LoopCorrectorConfig config;
+    config.method = method;
+    LoopCorrector c(config);
+    for (int i = 0; i < 60; ++i) c.add_keyframe(truth[static_cast<std::size_t>(i)], 0.03);
+    const Eigen::Isometry3d stitch = truth[59];  // continuous <- B's odometry frame: zero motion across the join
+    CHECK(c.add_segment_start(stitch) == 60);
+    for (int i = 1; i < 40; ++i) c.add_keyframe(stitch * yaw_pose(2.0 * i, 0.0, 0.0), 0.03);
+    REQUIRE(c.segment_starts() == std::vector<PoseIndex>{60});
+    // B's keyframe 10 (x = 80) sees A's keyframe 40 (x = 80) 1 m to the side, turned around.
+    LoopConstraint loop;
+    loop.query_index = 70;
+    loop.match_index = 40;
+    loop.T_match_query = truth[40].inverse() * truth[70];
+    INFO(to_string(method));
+    REQUIRE(c.add_loop(loop).ok);
+    const std::vector<Eigen::Isometry3d>& out = c.corrected_poses();
+    double a_moved = 0.0, b_error = 0.0;
+    for (std::size_t i = 0; i < 60; ++i) a_moved = std::max(a_moved, (out[i].translation() - truth[i].translation()).norm());
+    for (std::size_t i = 60; i < 100; ++i) b_error = std::max(b_error, (out[i].translation() - truth[i].translation()).norm());
+    CHECK(a_moved < 0.01);  // the join took the loop's error, not A's odometry
+    CHECK(b_error < 0.05);  // B as a whole, rigidly, where it truly is
+    // A second loop further on agrees: nothing moves by more than a centimetre.
+    loop.query_index = 90;
+    loop.match_index = 20;
+    loop.T_match_query = truth[20].inverse() * truth[90];
+    REQUIRE(c.add_loop(loop).ok);
+    for (std::size_t i = 0; i < 100; ++i) CHECK((c.corrected_poses()[i].translation() - truth[i].translation()).norm() < 0.05);
+  }
+}
