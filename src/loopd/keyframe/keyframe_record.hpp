@@ -34,9 +34,11 @@ struct KeyframeFeatures {
 
   /// @brief Heap + object footprint [bytes] of the descriptor and the prepared scan.
   std::size_t bytes() const {
-    return prepared.bytes() + static_cast<std::size_t>(descriptor.size()) * sizeof(float) + place.bins.size() +
-           (place.ring_key.size() + place.column_norms.size()) * sizeof(float);
+    std::size_t b = prepared.bytes() + static_cast<std::size_t>(descriptor.size()) * sizeof(float) + place_bytes(place);
+    for (const PlaceDescriptor& p : place_shifted) b += place_bytes(p);
+    return b;
   }
+  static std::size_t place_bytes(const PlaceDescriptor& p) { return p.bins.size() + (p.ring_key.size() + p.column_norms.size()) * sizeof(float); }
 };
 
 /// @brief A keyframe: its name, its odometry pose and its features (null when it was shed under load: the pose still

@@ -333,9 +333,9 @@ std::function<bool(const KeyframeKey&)> LoopDetector::prior_free_filter(const Ke
     newest_allowed = std::min(newest_allowed, it->key.index - 1);
   }
   std::map<SessionId, bool> other_sessions;
-  for (const SessionAlignment& a : sessions_.alignments({}))
-    if (a.session != query.key.session)
-      other_sessions[a.session] = sessions_.tied(query.key.session, a.session) ? beyond_gate : !sessions_.cannot_tie(query.key.session, a.session);
+  for (const SessionId session : sessions_.sessions())
+    if (session != query.key.session)
+      other_sessions[session] = sessions_.tied(query.key.session, session) ? beyond_gate : !sessions_.cannot_tie(query.key.session, session);
   return [query_session = query.key.session, newest_allowed, beyond_gate, other_sessions = std::move(other_sessions),
           verified = gated.verified](const KeyframeKey& k) {
     if (k.session == query_session) {

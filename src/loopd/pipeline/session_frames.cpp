@@ -45,6 +45,12 @@ void SessionFrames::tie(SessionId query, SessionId match) {
   frames_[query].group = group(match);
 }
 
+std::vector<SessionId> SessionFrames::sessions() const {
+  std::vector<SessionId> out;
+  for (const auto& entry : frames_) out.push_back(entry.first);
+  return out;
+}
+
 Eigen::Isometry3d SessionFrames::T_continuous_odom(SessionId session) const {
   const auto it = frames_.find(session);
   return it == frames_.end() ? Eigen::Isometry3d::Identity() : it->second.T_continuous_odom;

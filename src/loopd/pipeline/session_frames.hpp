@@ -54,6 +54,8 @@ class SessionFrames {
   /// @brief The newest keyframe of each session: its key and odometry pose.
   const std::map<SessionId, std::pair<KeyframeKey, Eigen::Isometry3d>>& newest() const { return newest_; }
   std::optional<SessionId> current() const { return current_; }
+  /// @brief Every session seen, by id.
+  std::vector<SessionId> sessions() const;
   std::size_t size() const { return frames_.size(); }
 
  private:
