@@ -264,6 +264,11 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("map.path", n.map.uri);
   b.field("map.synchronous", n.map.synchronous);
   b.field("map.cache_mb", n.map_cache_mb);
+  b.field("map.clouds", c.engine.map_cloud.enabled);
+  b.field("map.cloud_voxel", c.engine.map_cloud.voxel);
+  b.field("map.cloud_min_range", c.engine.map_cloud.min_range);
+  b.field("map.cloud_max_range", c.engine.map_cloud.max_range);
+  b.field("map.cloud_quantum", c.engine.map_cloud.quantum);
   b.field("output.trajectory_min_move", n.trajectory_output.min_move);
   b.field("output.trajectory_min_turn_deg", n.trajectory_output.min_turn_deg);
   b.field("output.trajectory_snapshot_period", n.trajectory_output.snapshot_period);

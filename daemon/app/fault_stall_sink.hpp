@@ -26,12 +26,12 @@ class FaultStallSink : public EngineSink {
     return std::make_pair(static_cast<std::int64_t>(std::atoll(at)), std::atoi(ms));
   }
 
-  void on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor) override {
+  void on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor, const MapCloudBlob& map_cloud) override {
     if (!stalled_ && keyframe.key.index >= at_keyframe_) {
       stalled_ = true;
       std::this_thread::sleep_for(std::chrono::milliseconds(stall_ms_));
     }
-    next_.on_keyframe(keyframe, T_map_sensor);
+    next_.on_keyframe(keyframe, T_map_sensor, map_cloud);
   }
   void on_decision(const LoopDecision& decision) override { next_.on_decision(decision); }
   void on_correction(const CorrectionOutput& correction) override { next_.on_correction(correction); }

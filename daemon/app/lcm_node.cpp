@@ -472,6 +472,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   live_config.detector.parallel_candidates = true;  // spare cores shorten the latency tail; same decisions
   LoopdEngine engine(live_config, first_sink);
   if (map.store && node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
+  if (map.store) engine.make_map_clouds();
   if (!resume_from_map(map, engine, false, engine_config.detector.sensor, "live " + node.lcm_url)) return 2;
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
@@ -577,6 +578,7 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   }
   LoopdEngine engine(config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
   if (map.store && node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
+  if (map.store) engine.make_map_clouds();
   if (!resume_from_map(map, engine, true, engine_config.detector.sensor, "replay " + input_log)) return 2;
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "heap_release.hpp"
+#include "loopd/map/map_cloud_codec.hpp"
 #include "log_level.hpp"
 
 namespace loopd {
@@ -26,6 +27,7 @@ std::optional<std::string> EngineConfig::validate() const {
   if (!(clock_jump > 0.0)) return "input.clock_jump must be > 0 [s]";
   if (!(max_odometry_speed > 0.0)) return "input.max_odometry_speed must be > 0 [m/s]";
   if (auto e = sessions.validate()) return e;
+  if (auto e = map_cloud.validate()) return e;
   return std::nullopt;
 }
 
@@ -205,7 +207,7 @@ void LoopdEngine::submit(Job job) {
       ++stats_.shed;
     }
     worker_steps_.fetch_add(1);
-    complete(shed.sequence, shed.input, nullptr);
+    complete(shed.sequence, ReadyKeyframe{shed.input, nullptr, nullptr});
     lock.lock();
   }
   queue_.push_back(std::move(job));
@@ -227,13 +229,17 @@ void LoopdEngine::worker_loop() {
     space_cv_.notify_one();
     deskew_scan(job);
     auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud));
+    MapCloudBlob map_cloud;
+    if (map_clouds_)
+      map_cloud = std::make_shared<const std::vector<std::uint8_t>>(
+          encode_map_cloud(reduce_to_map_cloud(job.cloud, config_.map_cloud), config_.map_cloud.quantum, config_.map_cloud.zstd_level));
     job.cloud = PointCloud();
     worker_steps_.fetch_add(1);
     if (!features->ok) {
       std::lock_guard<std::mutex> s(stats_mutex_);
       ++stats_.feature_failures;
     }
-    complete(job.sequence, job.input, features);
+    complete(job.sequence, ReadyKeyframe{job.input, features, std::move(map_cloud)});
     {
       std::lock_guard<std::mutex> lock(queue_mutex_);
       --busy_;
@@ -255,16 +261,16 @@ void LoopdEngine::deskew_scan(Job& job) {
   }
 }
 
-void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features) {
+void LoopdEngine::complete(std::int64_t sequence, ReadyKeyframe keyframe) {
   std::unique_lock<std::mutex> lock(sequence_mutex_);
-  ready_.emplace(sequence, std::make_pair(input, std::move(features)));
+  ready_.emplace(sequence, std::move(keyframe));
   completed_.fetch_add(1);
   ready_backlog_.store(static_cast<int>(ready_.size()));
   if (sequencing_) return;  // the thread that is sequencing takes it (checked and cleared under the same lock)
   sequencing_ = true;
   // The sequential stage runs strictly in keyframe order, so live and replay runs make the same decisions.
   while (!ready_.empty() && ready_.begin()->first == next_to_sequence_) {
-    auto item = std::move(ready_.begin()->second);
+    ReadyKeyframe item = std::move(ready_.begin()->second);
     ready_.erase(ready_.begin());
     ready_backlog_.store(static_cast<int>(ready_.size()));
     lock.unlock();
@@ -272,29 +278,7 @@ void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shar
       std::lock_guard<std::mutex> q(queue_mutex_);  // a blocked submit() may now have room
     }
     space_cv_.notify_one();
-    // Each decision goes out as soon as it is made; an accepted loop's correction follows.
-    DetectorOutput out = detector_.add_keyframe(
-        item.first, item.second,
-        [this](const LoopDecision& d) {
-          sequential_steps_.fetch_add(1);
-          sink_->on_decision(d);
-        },
-        [this](const KeyframeRecord& k, const Eigen::Isometry3d& T_map_sensor) { sink_->on_keyframe(k, T_map_sensor); });
-    if (out.correction) sink_->on_correction(*out.correction);
-    sink_->on_keyframe_decided(item.first.key);
-    if (out.correction && out.correction->graph_solved) {  // after a solve
-      release_free_heap();
-      page_out_library_code(kCompilerLibraries);  // PoCL compiles a kernel variant now and then
-    }
-    {
-      std::lock_guard<std::mutex> s(stats_mutex_);
-      stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
-      stats_.loops_accepted = detector_.loops_accepted();
-      stats_.loops_rejected = detector_.loops_rejected();
-      stats_.bytes_per_keyframe = static_cast<std::int64_t>(detector_.bytes_per_keyframe());
-      stats_.cached_feature_bytes = static_cast<std::int64_t>(detector_.cached_feature_bytes());
-      T_map_odom_ = detector_.T_map_odom();
-    }
+    run_sequential(item);
     lock.lock();
     ++next_to_sequence_;
     sequential_steps_.fetch_add(1);
@@ -303,6 +287,31 @@ void LoopdEngine::complete(std::int64_t sequence, KeyframeInput input, std::shar
   sequencing_ = false;
   lock.unlock();
   done_cv_.notify_all();
+}
+
+void LoopdEngine::run_sequential(ReadyKeyframe& item) {
+  // Each decision goes out as soon as it is made; an accepted loop's correction follows.
+  DetectorOutput out = detector_.add_keyframe(
+      item.input, item.features,
+      [this](const LoopDecision& d) {
+        sequential_steps_.fetch_add(1);
+        sink_->on_decision(d);
+      },
+      [this, &item](const KeyframeRecord& k, const Eigen::Isometry3d& T_map_sensor) { sink_->on_keyframe(k, T_map_sensor, item.map_cloud); });
+  item.map_cloud.reset();
+  if (out.correction) sink_->on_correction(*out.correction);
+  sink_->on_keyframe_decided(item.input.key);
+  if (out.correction && out.correction->graph_solved) {  // after a solve
+    release_free_heap();
+    page_out_library_code(kCompilerLibraries);  // PoCL compiles a kernel variant now and then
+  }
+  std::lock_guard<std::mutex> s(stats_mutex_);
+  stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
+  stats_.loops_accepted = detector_.loops_accepted();
+  stats_.loops_rejected = detector_.loops_rejected();
+  stats_.bytes_per_keyframe = static_cast<std::int64_t>(detector_.bytes_per_keyframe());
+  stats_.cached_feature_bytes = static_cast<std::int64_t>(detector_.cached_feature_bytes());
+  T_map_odom_ = detector_.T_map_odom();
 }
 
 void LoopdEngine::finish() {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "loopd/core/deskew.hpp"
+#include "loopd/map/map_cloud.hpp"
 #include "loopd/pipeline/keyframe_selector.hpp"
 #include "loopd/pipeline/loop_detector.hpp"
 #include "map_resume.hpp"
@@ -37,15 +38,20 @@ struct EngineConfig {
   double clock_jump = 2.0;                     ///< [s] data clock vs arrival clock disagreement that is a clock jump (input.clock_jump)
   double max_odometry_speed = 60.0;            ///< [m/s] faster apparent odometry motion is an odometry reset (input.max_odometry_speed)
   SessionPolicy sessions;                      ///< when a drive or an odometry reset opens a new session (sessions.*)
+  MapCloudConfig map_cloud;                    ///< the keyframes' map clouds (map.cloud_*), made when a map store is open
   std::optional<std::string> validate() const;
 };
+
+/// @brief An encoded keyframe map cloud (map/map_cloud_codec.hpp), shared read-only.
+using MapCloudBlob = std::shared_ptr<const std::vector<std::uint8_t>>;
 
 /// @brief Receives the engine's results (called from a worker thread, one call at a time).
 class EngineSink {
  public:
   virtual ~EngineSink() = default;
   /// @brief A keyframe entered the map (before any of its decisions).
-  virtual void on_keyframe(const KeyframeRecord& /*keyframe*/, const Eigen::Isometry3d& /*T_map_sensor*/) {}
+  /// `map_cloud`: its encoded map cloud (encode_map_cloud), null unless make_map_clouds() was called.
+  virtual void on_keyframe(const KeyframeRecord& /*keyframe*/, const Eigen::Isometry3d& /*T_map_sensor*/, const MapCloudBlob& /*map_cloud*/) {}
   virtual void on_decision(const LoopDecision& decision) = 0;
   virtual void on_correction(const CorrectionOutput& correction) = 0;
   /// @brief Every decision of `keyframe` (and its correction, if any) has been delivered.
@@ -113,6 +119,9 @@ class LoopdEngine {
   /// @brief Before any input and resume(): keyframe features live in `store` and in an LRU cache of `cache_bytes`
   /// (the sequential stage reads candidates back; the store must then be used from that stage only).
   void keep_features_in_store(MapStore& store, std::size_t cache_bytes);
+  /// @brief Before any input: workers also reduce each keyframe's (deskewed) scan to its map cloud (config.map_cloud)
+  /// and encode it for the sink (the map writer stores it; nothing of it is kept in memory).
+  void make_map_clouds() { map_clouds_ = config_.map_cloud.enabled; }
   /// @brief Keyframes recognised as already in the map and skipped (replay resume).
   std::int64_t keyframes_skipped() const { return keyframes_skipped_.load(); }
   /// @brief How far each stage got and whether work waits for it; callable from any thread.
@@ -138,7 +147,14 @@ class LoopdEngine {
   void worker_loop();
   /// Deskews the job's scan in place (deskew on, scan with per-point times) and counts what it did.
   void deskew_scan(Job& job);
-  void complete(std::int64_t sequence, KeyframeInput input, std::shared_ptr<const KeyframeFeatures> features);
+  /// A keyframe done by a worker (or shed), waiting for the sequential stage.
+  struct ReadyKeyframe {
+    KeyframeInput input;
+    std::shared_ptr<const KeyframeFeatures> features;
+    MapCloudBlob map_cloud;
+  };
+  void complete(std::int64_t sequence, ReadyKeyframe keyframe);
+  void run_sequential(ReadyKeyframe& item);
 
   EngineConfig config_;
   EngineSink* sink_;
@@ -153,6 +169,7 @@ class LoopdEngine {
   SessionKeys session_keys_;  ///< session and index of each keyframe (ingest thread)
   std::int64_t next_sequence_ = 0;
   bool features_in_store_ = false;
+  bool map_clouds_ = false;
   std::atomic<std::int64_t> keyframes_skipped_{0};
   double residual_since_keyframe_ = 0.0;
 
@@ -168,7 +185,7 @@ class LoopdEngine {
   // stage (sequencing_); a worker that finishes meanwhile leaves its keyframe here and goes back to the queue
   // instead of waiting for the lock, so both cores stay busy while a loop is verified.
   std::mutex sequence_mutex_;
-  std::map<std::int64_t, std::pair<KeyframeInput, std::shared_ptr<const KeyframeFeatures>>> ready_;
+  std::map<std::int64_t, ReadyKeyframe> ready_;
   bool sequencing_ = false;
   std::atomic<int> ready_backlog_{0};  ///< ready_.size(), readable without sequence_mutex_ (bounded by ready_capacity())
   std::int64_t next_to_sequence_ = 0;

@@ -75,15 +75,16 @@ StoreStatus MapWriter::put_alignments(const std::vector<SessionAlignment>& align
   return {};
 }
 
-void MapWriter::on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor) {
+void MapWriter::on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor, const MapCloudBlob& map_cloud) {
   decided_with_correction_ = false;
   if (stopped_) return failed("keyframe " + to_string(keyframe.key), stopped_status());
   if (const StoreStatus s = retry_busy([&] { return ensure_session(keyframe.key.session, keyframe.utime); }); !s.ok())
     return failed("session " + std::to_string(keyframe.key.session), s);
-  const StoreStatus s = retry_busy([&] { return store_.put_keyframe(MapKeyframe{keyframe, T_map_sensor}); });
+  const StoreStatus s = retry_busy([&] { return store_.put_keyframe(MapKeyframe{keyframe, T_map_sensor, map_cloud}); });
   if (!s.ok()) return failed("keyframe " + to_string(keyframe.key), s);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++stats_.keyframes_written;
+  if (map_cloud) stats_.map_cloud_bytes += static_cast<std::int64_t>(map_cloud->size());
 }
 
 void MapWriter::on_decision(const LoopDecision& decision) {

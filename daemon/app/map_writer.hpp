@@ -14,9 +14,10 @@ namespace loopd {
 /// @brief What the map writer did, for status_t and the log.
 struct MapWriterStats {
   std::int64_t keyframes_written = 0, decisions_written = 0, corrections_written = 0;
-  std::int64_t failures = 0;      ///< writes the store refused (the data stays in memory, detection goes on)
-  std::int64_t busy_retries = 0;  ///< writes tried again because another process held the map's lock
-  std::string last_error;         ///< the refused write that stopped the map's writes, and why
+  std::int64_t map_cloud_bytes = 0;  ///< encoded map clouds written with the keyframes
+  std::int64_t failures = 0;         ///< writes the store refused (the data stays in memory, detection goes on)
+  std::int64_t busy_retries = 0;     ///< writes tried again because another process held the map's lock
+  std::string last_error;            ///< the refused write that stopped the map's writes, and why
 };
 
 /// @brief An EngineSink in front of another: each keyframe, decision and correction is committed to `store` first
@@ -32,7 +33,7 @@ class MapWriter : public EngineSink {
   MapWriter(MapStore& store, EngineSink& next, int log_every_n, int correction_delay_ms = 0)
       : store_(store), next_(next), log_every_n_(log_every_n), correction_delay_ms_(correction_delay_ms) {}
 
-  void on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor) override;
+  void on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor, const MapCloudBlob& map_cloud) override;
   void on_decision(const LoopDecision& decision) override;
   void on_correction(const CorrectionOutput& correction) override;
   void on_keyframe_decided(const KeyframeKey& keyframe) override;

@@ -75,7 +75,7 @@ TEST_CASE("map writer: committed before passed on, and a full disk is counted wh
 
   int written_before_full = -1;
   for (std::int64_t i = 0; i < 40; ++i) {
-    writer.on_keyframe(keyframe(i, 3000), Eigen::Isometry3d::Identity());
+    writer.on_keyframe(keyframe(i, 3000), Eigen::Isometry3d::Identity(), nullptr);
     if (writer.stats().failures > 0 && written_before_full < 0) written_before_full = static_cast<int>(i);
     writer.on_decision(decision(i, i, false));
     writer.on_keyframe_decided(KeyframeKey{0, i});
@@ -129,7 +129,7 @@ TEST_CASE("map writer: a map locked by another process for a while is written af
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     other.store->rollback();
   });
-  writer.on_keyframe(keyframe(0, 100), Eigen::Isometry3d::Identity());
+  writer.on_keyframe(keyframe(0, 100), Eigen::Isometry3d::Identity(), nullptr);
   holder.join();
   MapWriterStats s = writer.stats();
   INFO(s.last_error);
@@ -146,7 +146,7 @@ TEST_CASE("map writer: a map locked by another process for a while is written af
   CHECK(s.busy_retries >= 4);
   CHECK(s.last_error.find("loop event 1") == 0);
   other.store->rollback();
-  writer.on_keyframe(keyframe(1, 100), Eigen::Isometry3d::Identity());
+  writer.on_keyframe(keyframe(1, 100), Eigen::Isometry3d::Identity(), nullptr);
   CHECK(writer.stats().keyframes_written == 1);  // stopped: a consistent prefix stays on disk
   CHECK(next.decisions == 1);                    // the decision was still passed on
   fs::remove_all(dir);

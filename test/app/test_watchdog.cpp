@@ -90,7 +90,7 @@ int count(const std::vector<std::string>& messages, const std::string& text) {
 /// Holds the sequential stage inside on_keyframe until released, as a hung verification or map write would.
 class HoldingSink : public EngineSink {
  public:
-  void on_keyframe(const KeyframeRecord&, const Eigen::Isometry3d&) override {
+  void on_keyframe(const KeyframeRecord&, const Eigen::Isometry3d&, const MapCloudBlob&) override {
     std::unique_lock<std::mutex> lock(mutex_);
     ++entered_;
     cv_.notify_all();

@@ -2,6 +2,7 @@
 /// @file What the map store holds: plain records with frame-named fields, no SQL and no storage types.
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,9 @@ struct SessionRecord {
 struct MapKeyframe {
   KeyframeRecord record;  ///< record.features null: shed or unusable scan (pose only)
   Eigen::Isometry3d T_map_sensor = Eigen::Isometry3d::Identity();
+  /// The keyframe's map cloud as encode_map_cloud() made it (map/map_cloud_codec.hpp), written with the keyframe;
+  /// null: none (never read back by for_each_keyframe: get_map_cloud reads it).
+  std::shared_ptr<const std::vector<std::uint8_t>> map_cloud;
 };
 
 /// @brief How much of a keyframe for_each_keyframe() reads back.
@@ -65,7 +69,8 @@ struct CorrectionRecord {
 /// @brief Totals for `loopd-map info` and status_t.
 struct MapStats {
   std::int64_t sessions = 0, keyframes = 0, loops_accepted = 0, loops_rejected = 0;
-  std::int64_t bytes = 0;  ///< on disk (database + journal)
+  std::int64_t map_clouds = 0, map_cloud_points = 0, map_cloud_bytes = 0;  ///< keyframes with a map cloud; their points and blob bytes
+  std::int64_t bytes = 0;                                                  ///< on disk (database + journal)
 };
 
 }  // namespace loopd

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "loopd/core/point_cloud.hpp"
 #include "loopd/map/map_records.hpp"
 
 namespace loopd {
@@ -79,6 +80,9 @@ class MapStore {
   virtual StoreStatus for_each_keyframe(std::optional<SessionId> session, KeyframeLoad load, const std::function<void(MapKeyframe&&)>& visit) = 0;
   /// @brief The prepared scan of one keyframe (kNotFound when it has none).
   virtual StoreResult<PreparedScan> get_prepared(const KeyframeKey& key) = 0;
+
+  /// @brief The map cloud of one keyframe, decoded (sensor frame); kNotFound when it has none.
+  virtual StoreResult<PointCloud> get_map_cloud(const KeyframeKey& key) = 0;
 
   /// @brief Marks a keyframe decided: every decision it made (and its correction) is stored.
   virtual StoreStatus mark_decided(const KeyframeKey& key) = 0;

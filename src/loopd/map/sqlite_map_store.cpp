@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 
 #include "loopd/map/keyframe_codec.hpp"
+#include "loopd/map/map_cloud_codec.hpp"
 
 namespace loopd {
 namespace {
@@ -208,6 +209,14 @@ CREATE TABLE loops (
   confirmed INTEGER NOT NULL DEFAULT 0
 );
 CREATE INDEX loops_by_status ON loops (status, event_id);
+CREATE TABLE map_clouds (
+  session INTEGER NOT NULL,
+  idx INTEGER NOT NULL,
+  points INTEGER NOT NULL,
+  cloud BLOB NOT NULL,
+  PRIMARY KEY (session, idx),
+  FOREIGN KEY (session, idx) REFERENCES keyframes (session, idx) ON DELETE CASCADE
+);
 CREATE TABLE correction (
   id INTEGER PRIMARY KEY CHECK (id = 1),
   revision INTEGER NOT NULL,
@@ -246,6 +255,7 @@ class SqliteMapStore final : public MapStore {
   StoreStatus put_keyframe(const MapKeyframe& keyframe) override;
   StoreStatus for_each_keyframe(std::optional<SessionId> session, KeyframeLoad load, const std::function<void(MapKeyframe&&)>& visit) override;
   StoreResult<PreparedScan> get_prepared(const KeyframeKey& key) override;
+  StoreResult<PointCloud> get_map_cloud(const KeyframeKey& key) override;
   StoreStatus mark_decided(const KeyframeKey& key) override;
   StoreResult<std::int64_t> drop_undecided() override;
   StoreStatus put_loop(const LoopRecord& loop) override;
@@ -263,6 +273,8 @@ class SqliteMapStore final : public MapStore {
     kKeyframes,
     kKeyframesFull,
     kPrepared,
+    kPutMapCloud,
+    kMapCloud,
     kHasKeyframe,
     kMarkDecided,
     kPutLoop,
@@ -286,6 +298,8 @@ class SqliteMapStore final : public MapStore {
     return rc == SQLITE_DONE ? StoreStatus{} : fail(rc, operation);
   }
   StoreResult<std::int64_t> scalar(const char* sql, const std::string& operation);
+  StoreStatus insert_keyframe(const MapKeyframe& keyframe);
+  StoreStatus upgrade_schema(std::int64_t from);
   StoreStatus read_keyframe(const Use& row, KeyframeLoad load, MapKeyframe& out) const;
   StoreStatus read_loop(const Use& row, LoopRecord& out) const;
   StoreStatus read_correction(const Use& row, CorrectionRecord& out) const;
@@ -308,6 +322,8 @@ const char* sql_of(int s) {
       "SELECT " LOOPD_KEYFRAME_COLUMNS " FROM keyframes WHERE ?1 IS NULL OR session = ?1 ORDER BY session, idx",
       "SELECT " LOOPD_KEYFRAME_COLUMNS ", features FROM keyframes WHERE ?1 IS NULL OR session = ?1 ORDER BY session, idx",
       "SELECT has_features, features FROM keyframes WHERE session = ? AND idx = ?",
+      "INSERT INTO map_clouds (session, idx, points, cloud) VALUES (?, ?, ?, ?)",
+      "SELECT cloud FROM map_clouds WHERE session = ? AND idx = ?",
       "SELECT 1 FROM keyframes WHERE session = ? AND idx = ?",
       "UPDATE keyframes SET decided = 1 WHERE session = ? AND idx = ?",
       "INSERT INTO loops VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
@@ -339,15 +355,7 @@ StoreStatus SqliteMapStore::create_or_check_schema() {
   const auto version = scalar("PRAGMA user_version", "read the schema version");
   if (!version.ok()) return version.status;
   if (version.value == kSqliteMapSchemaVersion) return {};
-  if (version.value == 1 && sqlite3_db_readonly(db_, "main") != 1) {
-    // Version 1 -> 2: the place descriptor (keyframes stored before it have none: not found by global retrieval) and how
-    // each loop was found.
-    return exec(
-        "BEGIN IMMEDIATE; ALTER TABLE keyframes ADD COLUMN place BLOB; ALTER TABLE loops ADD COLUMN retrieval TEXT NOT NULL DEFAULT 'gate'; "
-        "ALTER TABLE loops ADD COLUMN place_distance REAL NOT NULL DEFAULT -1; ALTER TABLE loops ADD COLUMN confirmed INTEGER NOT NULL DEFAULT 0; "
-        "PRAGMA user_version = 2; COMMIT;",
-        "upgrade the schema 1 -> 2");
-  }
+  if (version.value >= 1 && version.value < kSqliteMapSchemaVersion && sqlite3_db_readonly(db_, "main") != 1) return upgrade_schema(version.value);
   if (version.value != 0) {
     return {Code::kCorrupt, "map " + path_ + " has schema version " + std::to_string(version.value) + ", this loopd reads " +
                                 std::to_string(kSqliteMapSchemaVersion)};
@@ -364,6 +372,24 @@ StoreStatus SqliteMapStore::create_or_check_schema() {
     return st;
   }
   return exec("COMMIT", "create the schema");
+}
+
+StoreStatus SqliteMapStore::upgrade_schema(std::int64_t from) {
+  // 1 -> 2: the place descriptor (keyframes stored before it have none: not found by global retrieval) and how each
+  // loop was found. 2 -> 3: the keyframes' map clouds (keyframes stored before have none: left out of the 3D map).
+  const char* const steps[] = {
+      "",
+      ("ALTER TABLE keyframes ADD COLUMN place BLOB; ALTER TABLE loops ADD COLUMN retrieval TEXT NOT NULL DEFAULT 'gate'; "
+       "ALTER TABLE loops ADD COLUMN place_distance REAL NOT NULL DEFAULT -1; ALTER TABLE loops ADD COLUMN confirmed INTEGER NOT NULL DEFAULT 0;"),
+      ("CREATE TABLE map_clouds (session INTEGER NOT NULL, idx INTEGER NOT NULL, points INTEGER NOT NULL, cloud BLOB NOT NULL, "
+       "PRIMARY KEY (session, idx), FOREIGN KEY (session, idx) REFERENCES keyframes (session, idx) ON DELETE CASCADE);"),
+  };
+  std::string sql = "BEGIN IMMEDIATE;";
+  for (std::int64_t v = from; v < kSqliteMapSchemaVersion; ++v) sql += steps[v];
+  sql += " PRAGMA user_version = " + std::to_string(kSqliteMapSchemaVersion) + "; COMMIT;";
+  const StoreStatus st = exec(sql.c_str(), "upgrade the schema " + std::to_string(from) + " -> " + std::to_string(kSqliteMapSchemaVersion));
+  if (!st.ok()) exec("ROLLBACK", "upgrade the schema");
+  return st;
 }
 
 StoreStatus SqliteMapStore::setup(const MapStoreConfig& config) {
@@ -429,6 +455,26 @@ StoreResult<std::vector<SessionRecord>> SqliteMapStore::sessions() {
 // ---- keyframes ----
 
 StoreStatus SqliteMapStore::put_keyframe(const MapKeyframe& keyframe) {
+  if (!keyframe.map_cloud) return insert_keyframe(keyframe);
+  // The keyframe and its map cloud together (a savepoint nests in the caller's transaction when there is one).
+  if (auto st = exec("SAVEPOINT put_keyframe", "put keyframe"); !st.ok()) return st;
+  StoreStatus st = insert_keyframe(keyframe);
+  if (st.ok()) {
+    const auto& blob = *keyframe.map_cloud;
+    const auto points = static_cast<std::int64_t>(map_cloud_blob_points(blob.data(), blob.size()));
+    Use use(stmt(kPutMapCloud));
+    use.i64(keyframe.record.key.session).i64(keyframe.record.key.index).i64(points).blob(blob);
+    st = done(use, "put the map cloud of keyframe " + to_string(keyframe.record.key));
+  }
+  if (!st.ok()) {
+    exec("ROLLBACK TO put_keyframe", "put keyframe");
+    exec("RELEASE put_keyframe", "put keyframe");
+    return st;
+  }
+  return exec("RELEASE put_keyframe", "put keyframe");
+}
+
+StoreStatus SqliteMapStore::insert_keyframe(const MapKeyframe& keyframe) {
   const KeyframeRecord& r = keyframe.record;
   const KeyframeFeatures* f = r.features.get();
   Use use(stmt(kPutKeyframe));
@@ -528,6 +574,27 @@ StoreResult<PreparedScan> SqliteMapStore::get_prepared(const KeyframeKey& key) {
     } else {
       out.value = std::move(decoded.features.prepared);
     }
+  }
+  return out;
+}
+
+StoreResult<PointCloud> SqliteMapStore::get_map_cloud(const KeyframeKey& key) {
+  StoreResult<PointCloud> out;
+  Use use(stmt(kMapCloud));
+  use.i64(key.session).i64(key.index);
+  const int rc = use.step();
+  if (rc == SQLITE_DONE) {
+    out.status = {Code::kNotFound, "map " + path_ + ": keyframe " + to_string(key) + " has no map cloud"};
+  } else if (rc != SQLITE_ROW) {
+    out.status = fail(rc, "read the map cloud of keyframe " + to_string(key));
+  } else {
+    std::size_t n = 0;
+    const std::uint8_t* blob = use.blob_at(0, n);
+    DecodedMapCloud decoded = decode_map_cloud(blob, n);
+    if (!decoded.ok)
+      out.status = corrupt("keyframe " + to_string(key) + ": " + decoded.error);
+    else
+      out.value = std::move(decoded.cloud);
   }
   return out;
 }
@@ -681,6 +748,9 @@ StoreResult<MapStats> SqliteMapStore::stats() {
       {"SELECT count(*) FROM keyframes", &out.value.keyframes},
       {"SELECT count(*) FROM loops WHERE status = 1", &out.value.loops_accepted},
       {"SELECT count(*) FROM loops WHERE status <> 1", &out.value.loops_rejected},
+      {"SELECT count(*) FROM map_clouds", &out.value.map_clouds},
+      {"SELECT coalesce(sum(points), 0) FROM map_clouds", &out.value.map_cloud_points},
+      {"SELECT coalesce(sum(length(cloud)), 0) FROM map_clouds", &out.value.map_cloud_bytes},
   };
   for (const auto& [sql, value] : counts) {
     const auto r = scalar(sql, "count records");

@@ -1,0 +1,135 @@
+// Keyframe map clouds in the SQLite map: written with their keyframe, read back by key, counted, removed with an
+// undecided keyframe, and an older map gains the table on a writable open.
+#include <sqlite3.h>
+
+#include <catch2/catch.hpp>
+#include <memory>
+
+#include "loopd/map/map_cloud_codec.hpp"
+#include "loopd/map/map_store.hpp"
+#include "loopd/map/sqlite_map_store.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace loopd;
+using Code = StoreStatus::Code;
+
+namespace {
+
+#define REQUIRE_OK(expr)                              \
+  do {                                                \
+    const StoreStatus st_ = (expr);                   \
+    INFO(to_string(st_.code) << ": " << st_.message); \
+    REQUIRE(st_.ok());                                \
+  } while (0)
+
+std::unique_ptr<MapStore> open_map(const std::string& uri, bool read_only = false, StoreStatus* status = nullptr) {
+  MapStoreConfig config;
+  config.uri = uri;
+  config.read_only = read_only;
+  OpenedMapStore opened = open_map_store(config);
+  if (status) *status = opened.status;
+  return std::move(opened.store);
+}
+
+/// A cloud of n points on a small helix, intensity rising.
+PointCloud helix(int n) {
+  PointCloud c;
+  for (int i = 0; i < n; ++i) {
+    const double a = 0.05 * i;
+    c.points.emplace_back(static_cast<float>(8.0 * std::cos(a)), static_cast<float>(8.0 * std::sin(a)), static_cast<float>(0.01 * i));
+    c.intensity.push_back(static_cast<float>(i % 100));
+  }
+  return c;
+}
+
+MapKeyframe keyframe(std::int64_t index, int cloud_points) {
+  MapKeyframe k;
+  k.record.key = KeyframeKey{0, index};
+  k.record.utime = 1700000000000000 + 100000 * index;
+  k.record.T_odom_sensor.translation() = Eigen::Vector3d(static_cast<double>(index), 0.0, 0.0);
+  k.T_map_sensor = k.record.T_odom_sensor;
+  if (cloud_points > 0) k.map_cloud = std::make_shared<const std::vector<std::uint8_t>>(encode_map_cloud(helix(cloud_points), 0.01));
+  return k;
+}
+
+void put_session0(MapStore& store) {
+  SessionRecord s;
+  s.sensor = "hdl64";
+  s.source = "test";
+  REQUIRE_OK(store.put_session(s));
+}
+
+}  // namespace
+
+TEST_CASE("map clouds: written with the keyframe, read back by key, counted in the stats") {
+  test::TempDir dir;
+  auto store = open_map(dir.file("map.db"));
+  REQUIRE(store);
+  put_session0(*store);
+  REQUIRE_OK(store->put_keyframe(keyframe(0, 500)));
+  REQUIRE_OK(store->put_keyframe(keyframe(1, 0)));  // shed: no map cloud
+  REQUIRE_OK(store->put_keyframe(keyframe(2, 800)));
+  const StoreResult<PointCloud> got = store->get_map_cloud({0, 2});
+  REQUIRE(got.ok());
+  CHECK(got.value.size() == 800);
+  const DecodedMapCloud want = decode_map_cloud(encode_map_cloud(helix(800), 0.01));
+  REQUIRE(want.ok);
+  for (std::size_t i = 0; i < want.cloud.size(); ++i) REQUIRE(got.value.points[i] == want.cloud.points[i]);
+  const StoreResult<PointCloud> none = store->get_map_cloud({0, 1});
+  CHECK(none.status.code == Code::kNotFound);
+  CHECK(none.status.message.find("keyframe 0/1 has no map cloud") != std::string::npos);
+  CHECK(store->get_map_cloud({0, 7}).status.code == Code::kNotFound);
+  const StoreResult<MapStats> stats = store->stats();
+  REQUIRE(stats.ok());
+  CHECK(stats.value.map_clouds == 2);
+  CHECK(stats.value.map_cloud_points == 1300);
+  CHECK(stats.value.map_cloud_bytes > 0);
+  CHECK(store->check().ok());
+  // A repeated key is refused and leaves the first keyframe's cloud as it was.
+  CHECK_FALSE(store->put_keyframe(keyframe(2, 100)).ok());
+  CHECK(store->get_map_cloud({0, 2}).value.size() == 800);
+  store.reset();
+  auto reader = open_map(dir.file("map.db"), true);
+  REQUIRE(reader);
+  CHECK(reader->get_map_cloud({0, 0}).value.size() == 500);
+}
+
+TEST_CASE("map clouds: drop_undecided removes the clouds of the keyframes it removes") {
+  test::TempDir dir;
+  auto store = open_map(dir.file("map.db"));
+  REQUIRE(store);
+  put_session0(*store);
+  for (int i = 0; i < 3; ++i) REQUIRE_OK(store->put_keyframe(keyframe(i, 100)));
+  REQUIRE_OK(store->mark_decided({0, 0}));
+  const StoreResult<std::int64_t> dropped = store->drop_undecided();
+  REQUIRE(dropped.ok());
+  CHECK(dropped.value == 2);
+  CHECK(store->get_map_cloud({0, 0}).ok());
+  CHECK(store->get_map_cloud({0, 1}).status.code == Code::kNotFound);
+  CHECK(store->stats().value.map_clouds == 1);
+}
+
+TEST_CASE("map clouds: a schema 2 map gains the map_clouds table on a writable open; read-only it is refused with the versions") {
+  test::TempDir dir;
+  const std::string path = dir.file("map.db");
+  {
+    auto store = open_map(path);
+    REQUIRE(store);
+    put_session0(*store);
+    REQUIRE_OK(store->put_keyframe(keyframe(0, 0)));
+  }
+  sqlite3* db = nullptr;
+  REQUIRE(sqlite3_open(path.c_str(), &db) == SQLITE_OK);
+  REQUIRE(sqlite3_exec(db, "DROP TABLE map_clouds; PRAGMA user_version = 2;", nullptr, nullptr, nullptr) == SQLITE_OK);
+  sqlite3_close(db);
+  StoreStatus status;
+  CHECK_FALSE(open_map(path, true, &status));
+  CHECK(status.message.find("schema version 2, this loopd reads 3") != std::string::npos);
+  auto store = open_map(path, false, &status);
+  INFO(status.message);
+  REQUIRE(store);
+  CHECK(store->get_map_cloud({0, 0}).status.code == Code::kNotFound);  // stored before map clouds
+  REQUIRE_OK(store->put_keyframe(keyframe(1, 50)));
+  CHECK(store->get_map_cloud({0, 1}).value.size() == 50);
+  CHECK(store->check().ok());
+}
