@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <array>
 #include <iostream>
 #include <optional>
@@ -11,6 +12,7 @@
 
 #include "loopd/core/stopwatch.hpp"
 #include "loopd/sim/drive.hpp"
+#include "loopd/sim/movers.hpp"
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
 #include "tool_output.hpp"
@@ -68,8 +70,9 @@ void add_drive_options(CLI::App& app, loopd::DriveConfig* cfg, std::optional<int
   app.add_option("--seed", cfg->seed, "town / noise / drift seed")->capture_default_str();
   app.add_option("--route", cfg->route,
                  "route: town (three visits: block loop, long loop with lane offset, opposite direction), block (the block loop, lap after "
-                 "lap) or ring (the streets two blocks in from the town's edges, ~1.5 km a round, round after round: first revisit after "
-                 "a whole round, for large drift)")
+                 "lap), ring (the streets two blocks in from the town's edges, ~1.5 km a round, round after round: first revisit after "
+                 "a whole round, for large drift) or mine (an underground roadway grid: a cell loop, a long loop, the cell again, ~1.1 km "
+                 "a lap, on the roadway centre line with 3 m corners; featureless tunnels between distinctive junctions)")
       ->capture_default_str();
   app.add_option("--speed", cfg->speed, "vehicle speed [m/s]")->capture_default_str();
   app.add_option("--rate", cfg->rate_hz, "scan rate [Hz]")->capture_default_str();
@@ -233,13 +236,15 @@ void print_summary(const loopd::Drive& drive, const std::string& out, bool json,
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"loopd-sim: simulated lidar drive through a procedural town, written as an lcm-logger file"};
+  CLI::App app{"loopd-sim: simulated lidar drive through a procedural town (or mine), written as an lcm-logger file"};
   loopd::DriveConfig cfg;
   std::optional<int> reset_at;
-  std::string out;
+  std::string out, movers_out;
   bool json = false, list = false, quiet = false;
   int threads = 0;
   app.add_option("--out", out, "output lcm-logger file");
+  app.add_option("--movers-out", movers_out,
+                 "also write the boxes of every state of the movable objects that change during the drive (loopd-movers JSON)");
   add_drive_options(app, &cfg, &reset_at);
   add_effect_options(app, &cfg.effects);
   app.add_option("--threads", threads, "ray-casting threads (0 = all cores)")->capture_default_str();
@@ -277,6 +282,10 @@ int main(int argc, char** argv) {
   writer.close();
   if (!ok) {
     std::cerr << "loopd-sim: write to " << out << " failed\n";
+    return 1;
+  }
+  if (!movers_out.empty() && !(std::ofstream(movers_out) << loopd::movers_json(loopd::changing_movers(drive)) << "\n")) {
+    std::cerr << "loopd-sim: cannot write " << movers_out << "\n";
     return 1;
   }
   run.seconds = total.ms() / 1000.0;

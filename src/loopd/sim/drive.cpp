@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "loopd/sim/lidar_sim.hpp"
+#include "loopd/sim/mine.hpp"
 #include "loopd/sim/route.hpp"
 
 namespace loopd {
@@ -11,6 +12,8 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
+constexpr double kMineLaneLateral = 0.0;   ///< [m] the mine route drives on the roadway centre line
+constexpr double kMineCornerRadius = 3.0;  ///< [m] its corners (junction chambers are ~7-12 m across)
 
 class Rng {
  public:
@@ -128,12 +131,24 @@ void make_odometry(Drive* d) {
   }
 }
 
+/// The mine's roadways are 4-6 m wide: its drive keeps to the centre line and turns with 3 m corners, where the config
+/// still holds the town's defaults (lane_lateral -2 m, corner_radius 9 m); values set to anything else are kept.
+DriveConfig route_defaults(const DriveConfig& config) {
+  DriveConfig c = config;
+  const DriveConfig town;
+  if (config.route == "mine") {
+    if (config.lane_lateral == town.lane_lateral) c.lane_lateral = kMineLaneLateral;
+    if (config.corner_radius == town.corner_radius) c.corner_radius = kMineCornerRadius;
+  }
+  return c;
+}
+
 }  // namespace
 
 std::optional<std::string> DriveConfig::validate() const {
   if (!lidar_model_from_name(sensor)) return "unknown sensor '" + sensor + "'";
   if (num_scans < 1) return std::string("num_scans must be >= 1");
-  if (!is_route_name(route)) return "unknown route '" + route + "' (town, block, ring)";
+  if (!is_route_name(route)) return "unknown route '" + route + "' (town, block, ring, mine)";
   if (session < 1 || session > 1000) return "session must be in [1, 1000], got " + std::to_string(session);
   if (odometry_reset_at && (*odometry_reset_at < 1 || *odometry_reset_at >= num_scans))
     return "odometry_reset_at (the scan where odometry restarts) must be in [1, num_scans = " + std::to_string(num_scans) + "), got " +
@@ -199,24 +214,26 @@ Drive make_drive(const DriveConfig& config) {
     d.error = *err;
     return d;
   }
-  d.model = *lidar_model_from_name(config.sensor);
-  d.town = make_town(config.seed);
-  d.reversed = config.session % 2 == 0;
-  d.path = build_route_path(d.town, config, d.reversed);
+  d.config = route_defaults(config);
+  const DriveConfig& c = d.config;
+  d.model = *lidar_model_from_name(c.sensor);
+  d.town = c.route == "mine" ? make_mine(c.seed) : make_town(c.seed);
+  d.reversed = c.session % 2 == 0;
+  d.path = build_route_path(d.town, c, d.reversed);
   d.lap_length = lap_length_of(d.path);
-  if (config.session >= 2) {
+  if (c.session >= 2) {
     d.start_offset = session_start_offset(d);
-    d.car_visit_offset = (config.session - 1) << 20;
+    d.car_visit_offset = (c.session - 1) << 20;
   }
-  const double step = config.speed / config.rate_hz;
-  const std::int64_t start_utime = config.start_utime + std::int64_t{86400000000} * (config.session - 1);
+  const double step = c.speed / c.rate_hz;
+  const std::int64_t start_utime = c.start_utime + std::int64_t{86400000000} * (c.session - 1);
 
   // Ground truth at each scan's stamp.
-  d.scans.resize(static_cast<std::size_t>(config.num_scans));
-  for (int i = 0; i < config.num_scans; ++i) {
+  d.scans.resize(static_cast<std::size_t>(c.num_scans));
+  for (int i = 0; i < c.num_scans; ++i) {
     DriveScan& sc = d.scans[static_cast<std::size_t>(i)];
     sc.index = i;
-    sc.utime = start_utime + static_cast<std::int64_t>(std::llround(1e6 * i / config.rate_hz));
+    sc.utime = start_utime + static_cast<std::int64_t>(std::llround(1e6 * i / c.rate_hz));
     sc.route_distance = step * i;
     sc.T_world_sensor = path_pose(d, sc.route_distance, &sc.visit);
   }

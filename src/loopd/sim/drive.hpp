@@ -13,7 +13,7 @@
 
 namespace loopd {
 
-/// @brief Settings of a simulated drive through make_town(seed).
+/// @brief Settings of a simulated drive through make_town(seed) (make_mine(seed) for the route "mine").
 ///
 /// The route (street nodes (i, j), block ~50-75 m) repeats every lap; a lap has three visits:
 ///  - visit 0, short loop around one block: (0,0) E (1,0) N (1,1) W (0,1) S (0,0)  (~250 m);
@@ -43,7 +43,11 @@ struct DriveConfig {
   /// Route: "town" (the three-visit lap above), "block" (the short block loop driven again and again in the same
   /// direction, cars changing with every lap, the third lap starting in the lane-offset position: many revisits in
   /// few scans, for end-to-end tests and the demo) or "ring" (the streets two blocks in from the town's edges, ~1.5 km
-  /// a round, driven round after round counter-clockwise: first revisit after a whole round, for large-drift tests).
+  /// a round, driven round after round counter-clockwise: first revisit after a whole round, for large-drift tests)
+  /// or "mine" (through make_mine(seed) instead of the town: the roadway cell (0..1, 0..1), the long loop
+  /// (0..2, 0..1) with same-direction revisits of whole roadways, the cell again; ~0.9-1.3 km a lap, no U-turns). The
+  /// mine route has its own defaults, applied by make_drive where the config still holds the town's: lane_lateral 0
+  /// (the roadway centre line) instead of -2 m, corner_radius 3 m instead of 9 m; Drive::config holds the values used.
   std::string route = "town";
   int num_scans = 1000;
   std::uint64_t seed = 1;                       ///< town, noise and odometry drift seed
@@ -97,7 +101,7 @@ struct DrivePathPoint {
 
 /// @brief A drive: town, lidar model and per-scan poses. Scans are simulated on demand.
 struct Drive {
-  DriveConfig config;
+  DriveConfig config;  ///< as given, with the route's defaults applied (DriveConfig::route)
   LidarModel model;
   Town town;
   std::vector<DriveScan> scans;

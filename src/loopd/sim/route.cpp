@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace loopd {
 namespace {
@@ -16,6 +17,17 @@ struct Waypoint {
 std::vector<Waypoint> route_waypoints(const std::string& route) {
   std::vector<Waypoint> w;
   auto add = [&](int i, int j, int v, bool off = false) { w.push_back({i, j, v, off}); };
+  if (route == "mine") {
+    // make_mine's junctions (i 0..3, j 0..2), 60-100 m apart; no U-turns (every visit leaves (0,0) east and comes back
+    // from the north). Visit 0: the cell (0..1, 0..1) counter-clockwise. Visit 1: the long loop (0..2, 0..1), its
+    // first and last two roadways revisited in the same direction, (1,0) crossed straight. Visit 2: the cell again.
+    const std::vector<std::pair<int, int>> cell = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    const std::vector<std::pair<int, int>> long_loop = {{0, 0}, {1, 0}, {2, 0}, {2, 1}, {1, 1}, {0, 1}};
+    for (const auto& [i, j] : cell) add(i, j, 0);
+    for (const auto& [i, j] : long_loop) add(i, j, 1);
+    for (const auto& [i, j] : cell) add(i, j, 2);
+    return w;
+  }
   if (route == "block" || route == "ring") {
     // Three rounds, counter-clockwise. block: block (0..1, 0..1), the third round starting with the lane offset.
     // ring: the streets two blocks in from the town's edges (-2..4, -2..4; make_town's nodes are -3..5), ~1.5 km a
@@ -134,7 +146,7 @@ std::vector<CentreSample> centre_line(const Town& town, const DriveConfig& c, co
 
 }  // namespace
 
-bool is_route_name(const std::string& route) { return route == "town" || route == "block" || route == "ring"; }
+bool is_route_name(const std::string& route) { return route == "town" || route == "block" || route == "ring" || route == "mine"; }
 
 std::vector<DrivePathPoint> build_route_path(const Town& town, const DriveConfig& config, bool reversed) {
   const auto forward = route_waypoints(config.route);

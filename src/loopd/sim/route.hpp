@@ -7,10 +7,11 @@
 
 namespace loopd {
 
-/// @brief Visit labels per lap of every route (a lap is three visits: town's three loops, block's and ring's three rounds).
+/// @brief Visit labels per lap of every route (a lap is three visits: town's three loops, block's and ring's
+/// three rounds, mine's cell loop, long loop and cell loop again).
 constexpr int kRouteVisitsPerLap = 3;
 
-/// @brief True for the route names make_drive knows: "town", "block", "ring".
+/// @brief True for the route names make_drive knows: "town", "block", "ring" (make_town) and "mine" (make_mine).
 bool is_route_name(const std::string& route);
 
 /// @brief Dense samples (5 cm apart) of one lap of the driven path of `config.route` through `town`, arc length filled:
