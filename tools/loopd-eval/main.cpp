@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "eval_log.hpp"
+#include "map_eval.hpp"
 #include "loopd/eval/evaluation.hpp"
 #include "loopd/core/trajectory_io.hpp"
 #include "plots.hpp"
@@ -219,6 +220,7 @@ int main(int argc, char** argv) {
   bool json = false, quiet = false;
   EvalConfig config;
   EvalChannels ch;
+  MapEvalOptions map_options;
   app.add_option("--drive", drives,
                  "drive log (lcm-logger) with LIDAR_SCAN, ODOMETRY_POSE, GROUND_TRUTH_POSE; once per session's drive, in order "
                  "(keyframes find their ground truth by utime in any of them)")
@@ -252,8 +254,9 @@ int main(int argc, char** argv) {
   app.add_option("--loop-channel", ch.loop_event)->capture_default_str();
   app.add_option("--trajectory-channel", ch.trajectory)->capture_default_str();
   app.add_flag("--quiet", quiet, "no progress bar");
+  add_map_options(app, &map_options);
   CLI11_PARSE(app, argc, argv);
-  if (auto e = config.validate()) {
+  if (auto e = config.validate(); e || (e = map_options.validate())) {
     std::cerr << "loopd-eval: " << *e << "\n";
     return 2;
   }
@@ -267,7 +270,14 @@ int main(int argc, char** argv) {
     std::cerr << "loopd-eval: " << rep.error << "\n";
     return 1;
   }
+  MapEvalReport map_report;
+  std::string map_error;
+  if (!run_map_eval(map_options, drives, ch, input, quiet, &map_report, &map_error)) {
+    std::cerr << "loopd-eval: " << map_error << "\n";
+    return 1;
+  }
   std::vector<std::string> warnings = rep.warnings;
+  warnings.insert(warnings.end(), map_report.warnings.begin(), map_report.warnings.end());
   if (result_stats.loop_events == 0) warnings.push_back("the results log holds no loop events");
   if (drive_stats.malformed + result_stats.malformed > 0)
     warnings.push_back(std::to_string(drive_stats.malformed + result_stats.malformed) + " undecodable events skipped");
@@ -326,6 +336,7 @@ int main(int argc, char** argv) {
   err.add({"ATE RMSE (SE(3) aligned)", fmt(rep.ate_before), fmt(rep.ate_after)});
   std::cout << err.str() << (rep.has_corrected ? "" : "(no corrected trajectory: 'after' is odometry)\n") << "\n";
   print_sessions(rep.sessions, spans);
+  print_map_eval(map_report);
   Table tim({"stage timing [ms]", "median", "p95", "max", "count"});
   const std::pair<const char*, const TimingStats*> stages[] = {{"descriptor", &rep.ms_descriptor},
                                                                {"fourpcs", &rep.ms_fourpcs},
@@ -337,6 +348,9 @@ int main(int argc, char** argv) {
   for (const auto& p : pictures) std::cout << "picture: " << p << "\n";
   for (const auto& w : warnings) std::cout << "warning: " << w << "\n";
 
-  if (json) print_json_line(report_json(rep, drive_stats, result_stats, spans, pictures, warnings));
+  if (!json) return 0;
+  nlohmann::json j = report_json(rep, drive_stats, result_stats, spans, pictures, warnings);
+  add_map_json(map_report, j);
+  print_json_line(j);
   return 0;
 }
