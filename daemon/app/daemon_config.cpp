@@ -300,6 +300,7 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("gate.min_index_gap", d.gate.min_index_gap);
   b.field("gate.min_travel_gap", d.gate.min_travel_gap);
   b.field("descriptor.max_distance", d.max_descriptor_distance);
+  b.field("verify.max_prior_rotation_deg", d.max_prior_rotation_deg);
   b.field("descriptor.max_candidates", d.max_candidates_per_keyframe);
   b.field("verify.guided_window", d.guided_window);
   bind_stage_configs(b, d);

@@ -99,11 +99,12 @@ TEST_CASE("mid-roadway rays hit the rough walls at the roadway's half-width and 
 }
 
 TEST_CASE("the mine route is a closed lap of three visits on the roadways, with revisits and no U-turns", "[sim][mine][drive]") {
-  const Drive d = make_drive(mine_drive(1300));
+  const Drive d = make_drive(mine_drive(2600));  // 1.3 km at the mine's 5 m/s
   REQUIRE(d.error.empty());
   CHECK(d.town.name == "mine-1");
-  CHECK(d.config.lane_lateral == 0.0);  // the route's defaults (the town's -2 m and 9 m were left in the config)
+  CHECK(d.config.lane_lateral == 0.0);  // the route's defaults (the town's -2 m, 9 m and 10 m/s were left in the config)
   CHECK(d.config.corner_radius == 3.0);
+  CHECK(d.config.speed == 5.0);
   CHECK(d.lap_length > 800.0);
   CHECK(d.lap_length < 1300.0);
   CHECK(d.num_visits() >= 3);                                // (and the next lap's first, when the lap is shorter than 1.3 km)

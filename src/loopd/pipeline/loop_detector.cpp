@@ -19,6 +19,7 @@ std::optional<std::string> LoopDetectorConfig::validate() const {
   if (auto e = verify.validate()) return "verify: " + *e;
   if (auto e = correction.validate()) return "correction: " + *e;
   if (!(max_descriptor_distance > 0.0)) return "max_descriptor_distance must be > 0";
+  if (!(max_prior_rotation_deg > 0.0 && max_prior_rotation_deg <= 180.0)) return "verify.max_prior_rotation_deg must be in (0, 180]";
   if (max_candidates_per_keyframe < 1) return "max_candidates_per_keyframe must be >= 1";
   if (guided_window < 0) return "guided_window must be >= 0";
   if (!(plane_cell_size >= 1e-3)) return "plane_cell_size must be >= 0.001 [m]";  // cell indices stay in int64 range
@@ -302,8 +303,10 @@ LoopDetector::GatedOutcome LoopDetector::close_gated(const KeyframeRecord& query
   for (std::size_t i = 0; i < count; ++i) {
     LoopDecision d = make_decision(query, ranked[i], g.radius);
     g.verified.push_back(ranked[i].match->key);
-    const VerifyResult v = verifications.get(i);
+    VerifyResult v = verifications.get(i);
+    if (v.accepted) check_prior_rotation(*ranked[i].match, T_map_query, &v);
     apply_verification(v, query.features->ms_descriptor, d);
+    if (!v.accepted && v.reason.rfind("prior:", 0) == 0) d.stage = "prior";
     if (v.accepted) {
       out.correction = close_loop(query, ranked[i], v, std::move(d), out, on_decided);
       g.accepted = true;
@@ -314,6 +317,19 @@ LoopDetector::GatedOutcome LoopDetector::close_gated(const KeyframeRecord& query
     ++loops_rejected_;
   }
   return g;
+}
+
+void LoopDetector::check_prior_rotation(const KeyframeRecord& match, const Eigen::Isometry3d& T_map_query, VerifyResult* v) const {
+  const Eigen::Isometry3d T_match_query_prior = corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(match.key))].inverse() * T_map_query;
+  const double deg = Eigen::AngleAxisd(T_match_query_prior.linear().transpose() * v->T_match_query.linear()).angle() * 180.0 / M_PI;
+  if (deg <= config_.max_prior_rotation_deg) return;
+  char why[200];
+  std::snprintf(
+      why, sizeof why,
+      "prior: the alignment turns %.1f deg away from the corrected map's relative pose (max %.1f): a self-similar place aligned turned round", deg,
+      config_.max_prior_rotation_deg);
+  v->accepted = false;
+  v->reason = why;
 }
 
 std::function<bool(const KeyframeKey&)> LoopDetector::prior_free_filter(const KeyframeRecord& query, const GatedOutcome& gated) const {
@@ -373,9 +389,12 @@ void LoopDetector::close_prior_free(const KeyframeRecord& query, const Eigen::Is
       v = verify_candidate(query_features->prepared, match_features->prepared, std::nullopt, config_.verify);
     else
       v.reason = "the keyframe's features could not be read back from the map store";
-    apply_verification(v, query.features->ms_descriptor, d);
-    // A place within the gate of a session tied to the query's has the map's prior: no confirmation (as the gate's own).
+    // A place within the gate of a session tied to the query's has the map's prior: no confirmation (as the gate's own),
+    // and its rotation must agree with the prior's (as the gate's own).
     const bool within_gate = sessions_.tied(match->key.session, query.key.session) && candidate.gate_distance <= gated.radius;
+    if (v.accepted && within_gate) check_prior_rotation(*match, T_map_query, &v);
+    apply_verification(v, query.features->ms_descriptor, d);
+    if (!v.accepted && v.reason.rfind("prior:", 0) == 0) d.stage = "prior";
     if (v.accepted && within_gate) d.reason = "place retrieval within the gate: " + d.reason;
     if (v.accepted && (within_gate || confirm_prior_free(query, *match, v, T_map_query, d))) {
       out.correction = close_loop(query, candidate, v, std::move(d), out, on_decided);

@@ -49,6 +49,10 @@ struct LoopDetectorConfig {
   VerifyConfig verify;                    ///< Vlaminck 2019 Sec. 4.2-4.3
   double max_descriptor_distance = 0.35;  ///< candidates above this M2DP distance are not verified
   int max_candidates_per_keyframe = 3;    ///< verified best first, at most this many per keyframe
+  /// [deg] A gated loop's verified rotation may differ this much from the rotation the corrected map predicts between
+  /// the two keyframes (odometry yaw drifts a few degrees per km). A self-similar place (a tunnel seen from its other
+  /// end, a symmetric junction) aligns well turned by 90 or 180 deg: that is rejected at stage "prior".
+  double max_prior_rotation_deg = 45.0;
   /// Within this many keyframes after an accepted loop the corrected map already knows where the query lies relative
   /// to its candidates: GICP starts from that relative pose and the global 4PCS search is skipped (it runs only when
   /// this guided check rejects). 0 = always run 4PCS (the paper's pipeline).
@@ -179,6 +183,9 @@ class LoopDetector {
   std::vector<PlaceCandidate> retrieve_places(const KeyframeFeatures& query, const GatedOutcome& gated,
                                               const std::function<bool(const KeyframeKey&)>& accept) const;
   std::function<bool(const KeyframeKey&)> prior_free_filter(const KeyframeRecord& query, const GatedOutcome& gated) const;
+  /// Rejects (accepted = false, reason "prior: ...") an accepted gated verification whose rotation is farther than
+  /// max_prior_rotation_deg from the corrected map's relative pose.
+  void check_prior_rotation(const KeyframeRecord& match, const Eigen::Isometry3d& T_map_query, VerifyResult* v) const;
   bool confirm_prior_free(const KeyframeRecord& query, const KeyframeRecord& match, const VerifyResult& verification,
                           const Eigen::Isometry3d& T_map_query, LoopDecision& decision);
   const Eigen::Isometry3d& corrected(const KeyframeKey& key) const { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(key))]; }

@@ -47,7 +47,8 @@ struct DriveConfig {
   /// or "mine" (through make_mine(seed) instead of the town: the roadway cell (0..1, 0..1), the long loop
   /// (0..2, 0..1) with same-direction revisits of whole roadways, the cell again; ~0.9-1.3 km a lap, no U-turns). The
   /// mine route has its own defaults, applied by make_drive where the config still holds the town's: lane_lateral 0
-  /// (the roadway centre line) instead of -2 m, corner_radius 3 m instead of 9 m; Drive::config holds the values used.
+  /// (the roadway centre line) instead of -2 m, corner_radius 3 m instead of 9 m, speed 5 m/s instead of 10;
+  /// Drive::config holds the values used.
   std::string route = "town";
   int num_scans = 1000;
   std::uint64_t seed = 1;                       ///< town, noise and odometry drift seed
