@@ -1,9 +1,14 @@
-// loopd-map: what a loopd map file holds (loopd --map FILE): info, trajectory, loops, check. Opens the map read-only,
-// so it can run while loopd writes to it and never creates a file.
+// loopd-map: what a loopd map file holds (loopd --map FILE): info, trajectory, loops, check, and the 3D map built from
+// it (export-cloud, export-octomap, picture). Opens the map read-only, so it can run while loopd writes to it and
+// never creates a map.
 #include <CLI/CLI.hpp>
 #include <iostream>
 #include <unistd.h>
+#include <vector>
 
+#ifdef LOOPD_WITH_OCTOMAP
+#include "map_build_options.hpp"
+#endif
 #include "map_commands.hpp"
 #include "open_map.hpp"
 
@@ -28,7 +33,31 @@ int main(int argc, char** argv) {
   bool all = false;
   loops->add_flag("--all", all, "rejected decisions too");
   CLI::App* check = app.add_subcommand("check", "SQLite integrity check and the map's invariants; exit 1 when either fails");
-  for (CLI::App* sub : {info, trajectory, loops, check}) sub->fallthrough();
+  std::vector<CLI::App*> subs{info, trajectory, loops, check};
+#ifdef LOOPD_WITH_OCTOMAP
+  MapBuildOptions build;
+  CLI::App* export_cloud = app.add_subcommand("export-cloud", "the 3D map (corrected poses, moving objects and noise removed) as .pcd or .ply");
+  CLI::App* export_octomap = app.add_subcommand("export-octomap", "the occupancy octree of the map as OctoMap's .bt (octovis opens it)");
+  CLI::App* picture =
+      app.add_subcommand("picture", "a top view of the 3D map coloured by height, with the trajectory and the accepted loops, as PNG");
+  for (CLI::App* sub : {export_cloud, export_octomap, picture}) {
+    sub->add_option("--out", build.out, "file to write (.pcd or .ply; .bt; .png)")->required();
+    sub->add_option("--session", build.session, "only this session's keyframes");
+    sub->add_flag("--odometry", build.odometry, "odometry poses (the uncorrected map, for comparison)");
+    sub->add_option("--resolution", build.resolution, "[m] octree leaf")->capture_default_str();
+    sub->add_option("--ray-range", build.ray_range, "[m] rays clear free space up to this range")->capture_default_str();
+    subs.push_back(sub);
+  }
+  for (CLI::App* sub : {export_cloud, picture}) {
+    sub->add_option("--voxel", build.voxel, "[m] voxel of the written map (centroids, mean intensity)")->capture_default_str();
+    sub->add_flag("--keep-moving", build.keep_moving, "no free-space clearing (moving objects stay)");
+    sub->add_flag("--keep-roadway-noise", build.keep_roadway_noise, "no roadway-section filter (Ren 2019 Sec. 3.5)");
+    sub->add_flag("--keep-outliers", build.keep_outliers, "no statistical outlier filter");
+  }
+  picture->add_option("--pixel", build.picture_cell, "[m] pixel size (default: the map in about 1400 pixels)");
+  picture->add_option("--cloud", build.picture_cloud, "draw this exported map (.pcd or .ply, from export-cloud) instead of building it again");
+#endif
+  for (CLI::App* sub : subs) sub->fallthrough();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -45,5 +74,10 @@ int main(int argc, char** argv) {
   if (info->parsed()) return run_info(*map.store, options);
   if (trajectory->parsed()) return run_trajectory(*map.store, traj, options);
   if (loops->parsed()) return run_loops(*map.store, all, options);
+#ifdef LOOPD_WITH_OCTOMAP
+  if (export_cloud->parsed()) return run_export_cloud(*map.store, build, options);
+  if (export_octomap->parsed()) return run_export_octomap(*map.store, build, options);
+  if (picture->parsed()) return run_picture(*map.store, build, options);
+#endif
   return run_check(*map.store, options);
 }

@@ -30,6 +30,14 @@ int run_trajectory(MapStore& store, const TrajectoryOptions& trajectory, const C
 /// @brief `loops`: the accepted loop decisions (every decision when `all`).
 int run_loops(MapStore& store, bool all, const CommandOptions& options);
 
+struct MapBuildOptions;
+/// @brief `export-cloud`: the 3D map as .pcd / .ply (map_build_options.hpp).
+int run_export_cloud(MapStore& store, const MapBuildOptions& build, const CommandOptions& options);
+/// @brief `export-octomap`: the occupancy octree as OctoMap's .bt.
+int run_export_octomap(MapStore& store, const MapBuildOptions& build, const CommandOptions& options);
+/// @brief `picture`: a top view of the map (height colours, trajectory, accepted loops) as PNG.
+int run_picture(MapStore& store, const MapBuildOptions& build, const CommandOptions& options);
+
 /// @brief `check`: the store's integrity check and map invariants; kExitCheckFailed when it fails.
 int run_check(MapStore& store, const CommandOptions& options);
 

@@ -2,56 +2,21 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
-#include <map>
 #include <unistd.h>
 
 #include "loopd/core/trajectory_io.hpp"
 #include "map_commands.hpp"
+#include "map_poses.hpp"
 #include "tool_output.hpp"
 
 namespace loopd::tools {
 namespace {
 
-/// @brief The poses to write and where they came from.
+/// @brief The poses to write.
 struct MapTrajectory {
   std::vector<Eigen::Isometry3d> poses;
-  std::vector<double> stamps;         ///< [s] keyframe scan times
-  std::int64_t from_correction = 0;   ///< poses the stored correction holds
-  std::int64_t after_correction = 0;  ///< poses mapped with the correction's T_map_odom (keyframes it does not cover)
+  std::vector<double> stamps;  ///< [s] keyframe scan times
 };
-
-/// @brief Corrected pose of a keyframe: the stored correction's T_map_sensor where it covers the keyframe, else
-/// T_map_odom * T_odom_sensor (identity T_map_odom before any correction), as loopd publishes a later keyframe.
-void collect_pose(const MapKeyframe& k, const CorrectionRecord* correction, const std::map<KeyframeKey, std::size_t>& covered, bool odometry,
-                  MapTrajectory* out) {
-  out->stamps.push_back(static_cast<double>(k.record.utime) * 1e-6);
-  if (odometry) {
-    out->poses.push_back(k.record.T_odom_sensor);
-    return;
-  }
-  const auto it = covered.find(k.record.key);
-  if (it != covered.end()) {
-    out->poses.push_back(correction->T_map_sensor[it->second]);
-    ++out->from_correction;
-    return;
-  }
-  out->poses.push_back(correction ? correction->T_map_odom * k.record.T_odom_sensor : k.record.T_odom_sensor);
-  ++out->after_correction;
-}
-
-StoreStatus read_trajectory_poses(MapStore& store, const CorrectionRecord* correction, bool odometry, bool progress, MapTrajectory* out) {
-  std::map<KeyframeKey, std::size_t> covered;
-  if (correction && !odometry)
-    for (std::size_t i = 0; i < correction->keys.size(); ++i) covered.emplace(correction->keys[i], i);
-  const StoreResult<MapStats> stats = store.stats();
-  Progress bar("reading keyframes", stats.ok() ? stats.value.keyframes : 0, progress);
-  const StoreStatus read = store.for_each_keyframe(std::nullopt, KeyframeLoad::kPose, [&](MapKeyframe&& k) {
-    collect_pose(k, correction, covered, odometry, out);
-    bar.update(static_cast<std::int64_t>(out->poses.size()));
-  });
-  bar.finish();
-  return read;
-}
 
 /// @brief Writes to stdout through a temporary file (the writer takes a path; /dev/stdout would truncate a redirect).
 std::optional<std::string> write_to_stdout(const MapTrajectory& t, TrajectoryFormat format) {
@@ -78,16 +43,15 @@ int run_trajectory(MapStore& store, const TrajectoryOptions& trajectory, const C
     std::cerr << "loopd-map: trajectory format \"" << trajectory.format << "\": expected tum or kitti\n";
     return kExitBadInput;
   }
-  const StoreResult<std::optional<CorrectionRecord>> correction = store.correction();
-  if (!correction.ok()) {
-    std::cerr << "loopd-map: " << correction.status.message << "\n";
+  KeyframePoses read;
+  if (const StoreStatus st = read_keyframe_poses(store, trajectory.odometry, std::nullopt, options.progress, &read); !st.ok()) {
+    std::cerr << "loopd-map: " << st.message << "\n";
     return kExitBadInput;
   }
-  const CorrectionRecord* stored = correction.value ? &*correction.value : nullptr;
   MapTrajectory t;
-  if (const StoreStatus read = read_trajectory_poses(store, stored, trajectory.odometry, options.progress, &t); !read.ok()) {
-    std::cerr << "loopd-map: " << read.message << "\n";
-    return kExitBadInput;
+  for (const KeyframePose& p : read.poses) {
+    t.poses.push_back(p.T);
+    t.stamps.push_back(static_cast<double>(p.utime) * 1e-6);
   }
   const auto error = trajectory.out.empty() ? write_to_stdout(t, *format) : write_trajectory(trajectory.out, t.poses, t.stamps, *format);
   if (error) {
@@ -101,8 +65,9 @@ int run_trajectory(MapStore& store, const TrajectoryOptions& trajectory, const C
   Table table({"", "value"});
   table.add({"poses (" + kind + ", " + trajectory.format + ")", std::to_string(t.poses.size())});
   if (!trajectory.odometry) {
-    table.add({"from correction revision " + (stored ? std::to_string(stored->revision) : std::string("(none)")), std::to_string(t.from_correction)});
-    table.add({"after it (T_map_odom * T_odom_sensor)", std::to_string(t.after_correction)});
+    table.add({"from correction revision " + (read.correction_revision ? std::to_string(read.correction_revision) : std::string("(none)")),
+               std::to_string(read.from_correction)});
+    table.add({"after it (T_map_odom * T_odom_sensor)", std::to_string(read.after_correction)});
   }
   table.add({"written to", where});
   summary << table.str();
@@ -110,9 +75,9 @@ int run_trajectory(MapStore& store, const TrajectoryOptions& trajectory, const C
     print_json_line({{"poses", t.poses.size()},
                      {"kind", kind},
                      {"format", trajectory.format},
-                     {"correction_revision", stored ? stored->revision : 0},
-                     {"from_correction", t.from_correction},
-                     {"after_correction", t.after_correction},
+                     {"correction_revision", read.correction_revision},
+                     {"from_correction", read.from_correction},
+                     {"after_correction", read.after_correction},
                      {"out", where}});
   }
   return kExitOk;
