@@ -23,7 +23,7 @@ namespace {
 const std::string kBin = LOOPD_BINARY_DIR;
 constexpr int kScans = 340;  // one revisit of the block (seed 23): loopd corrects, the odometry map uses its keyframes
 constexpr int kSeed = 23;
-constexpr double kVoxel = 0.2, kRange = 40.0;  // loopd-eval's defaults
+constexpr double kVoxel = 0.2, kRange = 60.0;  // loopd-eval's defaults
 
 /// The drive's scans, deskewed with ground truth, at their ground-truth poses, cropped and voxelised as loopd-eval
 /// builds its reference.

@@ -18,7 +18,7 @@ struct MapEvalOptions {
   std::string map_cloud_odometry;  ///< optional: a map built from odometry; empty: built here from the drive's keyframe scans
   std::string movers;              ///< optional: loopd-sim's movers file (JSON)
   double voxel = 0.2;              ///< [m] leaf of the reference map and of the self-built odometry map
-  double range = 40.0;             ///< [m] scan points farther than this from the sensor are left out (as the map does)
+  double range = 60.0;             ///< [m] scan points farther than this from the sensor are left out (map.cloud_max_range)
   MapQualityConfig quality;
   bool enabled() const { return !map_cloud.empty(); }
   std::optional<std::string> validate() const;

@@ -75,6 +75,9 @@ std::optional<std::string> parse_mover(const Json& m, const std::string& where, 
   if (auto e = vector_field(m, "max", where, &box->max)) return e;
   for (int k = 0; k < 3; ++k)
     if (box->min[k] > box->max[k]) return where + ": min[" + std::to_string(k) + "] is greater than max[" + std::to_string(k) + "]";
+  const auto left = m.find("left");
+  if (left != m.end() && !left->is_boolean()) return where + ".left: not a boolean";
+  box->left = left == m.end() || left->get<bool>();
   box->id = static_cast<int>(id);
   box->variant = static_cast<int>(variant);
   return std::nullopt;
@@ -173,11 +176,13 @@ std::int64_t count_mover_points(const PointCloud& cloud, const std::vector<MapMo
   std::int64_t n = 0;
   for (const auto& p : cloud.points) {
     if (!finite(p)) continue;
-    for (const auto& b : movers)
-      if (inside(p, b, margin)) {
-        ++n;
-        break;
-      }
+    // In a box the object left, and not inside where an object stands at the end (a car moved along the kerb).
+    bool stale = false, current = false;
+    for (const auto& b : movers) {
+      if (!inside(p, b, margin)) continue;
+      (b.left ? stale : current) = true;
+    }
+    n += stale && !current ? 1 : 0;
   }
   return n;
 }

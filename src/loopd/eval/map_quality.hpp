@@ -51,6 +51,9 @@ struct MapMoverBox {
   int id = 0;       ///< the object's id (loopd-sim's movable id)
   int variant = 0;  ///< which of its positions this box is
   Eigen::Vector3d min = Eigen::Vector3d::Zero(), max = Eigen::Vector3d::Zero();
+  /// The object left this place before the drive ended ("left", optional, default true): a map should not keep it.
+  /// A box with left false is where the object stands at the end: part of the final scene, not counted.
+  bool left = true;
 };
 
 /// @brief Parses the movers file written by loopd-sim: {"format":"loopd-movers","version":1,"movers":[{"id":3,
@@ -72,8 +75,9 @@ struct MapQuality {
   std::optional<double> mean_error;    ///< [m] mean over the map points of the distance to the nearest reference point
   std::optional<double> p95_error;     ///< [m] 95th percentile of the same; both nullopt when map or reference is empty
   std::optional<double> completeness;  ///< share of reference points with a map point within completeness_radius; nullopt: no reference
-  std::int64_t moving_points = 0;      ///< map points inside any mover box grown by mover_margin
-  double moving_points_share = 0.0;    ///< moving_points / points (0 for an empty map)
+  std::int64_t moving_points =
+      0;  ///< map points inside a box an object left (grown by mover_margin), not inside one where an object stands at the end
+  double moving_points_share = 0.0;  ///< moving_points / points (0 for an empty map)
 };
 
 /// @brief Compares `map` with `reference` (both in the same frame [m]; non-finite points are ignored) with k-d trees

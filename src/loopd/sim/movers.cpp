@@ -64,7 +64,11 @@ std::vector<MoverBox> changing_movers(const Drive& drive) {
   }
   std::vector<MoverBox> out;
   out.reserve(boxes.size());
-  for (const auto& [key, box] : boxes) out.push_back(box);
+  const int last_visit = drive.scans.empty() ? 0 : drive.scans.back().visit + drive.car_visit_offset;
+  for (const auto& [key, box] : boxes) {
+    out.push_back(box);
+    out.back().left = drive.town.active_variant(box.movable_id, last_visit) != box.variant;
+  }
   return out;
 }
 
@@ -76,6 +80,7 @@ std::string movers_json(const std::vector<MoverBox>& movers) {
     j["variant"] = m.variant;
     j["min"] = {m.min.x(), m.min.y(), m.min.z()};
     j["max"] = {m.max.x(), m.max.y(), m.max.z()};
+    j["left"] = m.left;
     list.push_back(j);
   }
   nlohmann::ordered_json doc;

@@ -15,6 +15,9 @@ struct MoverBox {
   int variant = 0;                                ///< 0 = where it stood on visit 0, 1 = moved ("gone", 2, has no primitives and no box)
   Eigen::Vector3d min = Eigen::Vector3d::Zero();  ///< [m]
   Eigen::Vector3d max = Eigen::Vector3d::Zero();  ///< [m]
+  /// The object no longer stands here at the drive's end (its state on the last scan's visit is another): a map of
+  /// the drive should not keep these points. The state shown at the end is part of the final scene.
+  bool left = false;
 };
 
 /// @brief Every variant with primitives of every movable object whose shown state
@@ -22,7 +25,7 @@ struct MoverBox {
 /// sorted by (movable_id, variant). Empty when the drive shows one state of everything (e.g. visit 0 only).
 std::vector<MoverBox> changing_movers(const Drive& drive);
 
-/// @brief `{"format":"loopd-movers","version":1,"movers":[{"id":3,"variant":0,"min":[x,y,z],"max":[x,y,z]},...]}`
+/// @brief `{"format":"loopd-movers","version":1,"movers":[{"id":3,"variant":0,"min":[x,y,z],"max":[x,y,z],"left":true},...]}`
 /// (keys in this order, one line; read by loopd-eval).
 std::string movers_json(const std::vector<MoverBox>& movers);
 
