@@ -46,6 +46,9 @@ int main(int argc, char** argv) {
     sub->add_flag("--odometry", build.odometry, "odometry poses (the uncorrected map, for comparison)");
     sub->add_option("--resolution", build.resolution, "[m] octree leaf")->capture_default_str();
     sub->add_option("--ray-range", build.ray_range, "[m] rays clear free space up to this range")->capture_default_str();
+    sub->add_option("--prob-hit", build.prob_hit, "occupancy probability of a leaf a ray ends in (OctoMap's sensor model)")->capture_default_str();
+    sub->add_option("--prob-miss", build.prob_miss, "occupancy probability of a leaf a ray crosses (closer to 0.5: slower to clear)")
+        ->capture_default_str();
     subs.push_back(sub);
   }
   for (CLI::App* sub : {export_cloud, picture}) {

@@ -12,6 +12,8 @@ MapBuildConfig build_config(const MapBuildOptions& options) {
   c.voxel = options.voxel;
   c.octree.resolution = options.resolution;
   c.octree.ray_max_range = options.ray_range;
+  c.octree.prob_hit = options.prob_hit;
+  c.octree.prob_miss = options.prob_miss;
   c.clear_free_space = !options.keep_moving;
   c.roadway_noise = !options.keep_roadway_noise;
   c.statistical_outliers = !options.keep_outliers;

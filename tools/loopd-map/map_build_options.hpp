@@ -13,14 +13,15 @@ struct MapBuildOptions {
   std::string out;
   double voxel = 0.2;  ///< [m] output map voxel
   std::optional<std::int64_t> session;
-  bool odometry = false;            ///< uncorrected poses (for comparison)
-  bool keep_moving = false;         ///< no free-space clearing
-  bool keep_roadway_noise = false;  ///< no roadway-section filter
-  bool keep_outliers = false;       ///< no statistical filter
-  double resolution = 0.2;          ///< [m] octree leaf
-  double ray_range = 30.0;          ///< [m] ray-casting range
-  double picture_cell = 0.0;        ///< [m] picture pixel (0: fit the map in about 1400 pixels)
-  std::string picture_cloud;        ///< picture: draw this exported map (.pcd / .ply) instead of building one
+  bool odometry = false;                   ///< uncorrected poses (for comparison)
+  bool keep_moving = false;                ///< no free-space clearing
+  bool keep_roadway_noise = false;         ///< no roadway-section filter
+  bool keep_outliers = false;              ///< no statistical filter
+  double resolution = 0.2;                 ///< [m] octree leaf
+  double ray_range = 30.0;                 ///< [m] ray-casting range
+  double prob_hit = 0.7, prob_miss = 0.4;  ///< OctoMap's sensor model (its defaults)
+  double picture_cell = 0.0;               ///< [m] picture pixel (0: fit the map in about 1400 pixels)
+  std::string picture_cloud;               ///< picture: draw this exported map (.pcd / .ply) instead of building one
 };
 
 /// @brief The build configuration the options ask for.

@@ -75,6 +75,10 @@ int run_info(MapStore& store, const CommandOptions& options) {
   totals.add({"loops rejected", std::to_string(m.loops_rejected)});
   totals.add({"correction revision", correction.value ? std::to_string(revision) : "none"});
   totals.add({"keyframes in the correction", correction.value ? std::to_string(correction.value->keys.size()) : "0"});
+  const std::string per =
+      m.map_clouds > 0 ? fmt(static_cast<double>(m.map_cloud_bytes) / static_cast<double>(m.map_clouds) / 1024.0, 1) + " KiB each" : "-";
+  totals.add(
+      {"keyframes with a map cloud (points, bytes)", std::to_string(m.map_clouds) + " (" + std::to_string(m.map_cloud_points) + ", " + per + ")"});
   totals.add({"bytes on disk", std::to_string(m.bytes) + " (" + fmt(static_cast<double>(m.bytes) / 1048576.0, 1) + " MiB)"});
   std::cout << totals.str();
   if (options.json) {
@@ -88,6 +92,9 @@ int run_info(MapStore& store, const CommandOptions& options) {
                      {"loops_rejected", m.loops_rejected},
                      {"correction_revision", revision},
                      {"correction_keyframes", correction.value ? correction.value->keys.size() : 0},
+                     {"map_clouds", m.map_clouds},
+                     {"map_cloud_points", m.map_cloud_points},
+                     {"map_cloud_bytes", m.map_cloud_bytes},
                      {"bytes", m.bytes}});
   }
   return kExitOk;

@@ -28,7 +28,8 @@ struct HeightGrid {
   float lo = 0.0f, hi = 1.0f;  ///< colour range: 2nd and 98th percentile of the cells' heights
 };
 
-HeightGrid rasterise(const PointCloud& map, double cell) {
+/// `cell` 0: the map in about 1400 pixels, at least `min_cell` (a pixel smaller than the map's voxel leaves holes).
+HeightGrid rasterise(const PointCloud& map, double cell, double min_cell) {
   HeightGrid g;
   Eigen::Vector3f mn = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), mx = -mn;
   for (const auto& p : map.points) {
@@ -36,7 +37,7 @@ HeightGrid rasterise(const PointCloud& map, double cell) {
     mx = mx.cwiseMax(p);
   }
   const double extent = std::max(static_cast<double>(mx.x() - mn.x()), static_cast<double>(mx.y() - mn.y()));
-  g.cell = cell > 0.0 ? cell : std::max(0.1, extent / 1400.0);
+  g.cell = cell > 0.0 ? cell : std::max(min_cell, extent / 1400.0);
   g.x0 = mn.x();
   g.y0 = mn.y();
   g.nx = std::max(1, static_cast<int>((mx.x() - mn.x()) / g.cell) + 1);
@@ -108,7 +109,8 @@ bool render(const std::string& dir, const HeightGrid& g, std::size_t loops, cons
        << "]\nset key outside bottom center horizontal\nset object 1 rectangle from screen 0,0 to screen 1,1 fillcolor rgb 'white' behind\n"
        << "plot " << quote(dir + "/height.bin") << " binary matrix with image notitle, " << quote(dir + "/trajectory.dat")
        << " with lines lw 1.5 lc rgb '#e00000' title 'trajectory'";
-    if (loops > 0) gp << ", " << quote(dir + "/loops.dat") << " with lines lw 1 lc rgb '#000000' title 'accepted loops'";
+    if (loops > 0)
+      gp << ", " << quote(dir + "/loops.dat") << " with linespoints lw 1 pt 6 ps 1.2 lc rgb '#000000' title 'accepted loops (query - match)'";
     gp << "\nunset output\n";
     gp.close();
     const std::string cmd = "gnuplot " + quote(dir + "/picture.gp") + " 2> " + quote(dir + "/gnuplot.log");
@@ -155,7 +157,7 @@ int run_picture(MapStore& store, const MapBuildOptions& o, const CommandOptions&
     return kExitBadInput;
   }
   const std::string dir = tmpl;
-  const HeightGrid grid = rasterise(map, o.picture_cell);
+  const HeightGrid grid = rasterise(map, o.picture_cell, 1.5 * (o.picture_cloud.empty() ? o.voxel : 0.2));
   const std::size_t loops = write_overlays(store, poses, dir);
   const bool ok = write_matrix(dir + "/height.bin", grid) && render(dir, grid, loops, o);
   if (!ok) {
