@@ -107,6 +107,13 @@ TEST_CASE("map_quality: moving points are exactly the map points inside the grow
   CHECK(q.moving_points_share == Approx(5.0 / 8.0));
   CHECK(count_mover_points(map, movers, 0.0) == 3);
   CHECK(count_mover_points(map, {}, 0.1) == 0);
+  // Where the object stands at the drive's end (left false) is the final scene: a point there is not counted, even
+  // inside a box it left too (a car moved along the kerb by less than its length).
+  movers.push_back(MapMoverBox{});
+  movers[2].min = {2, 0, 0};
+  movers[2].max = {6, 2, 1.5};
+  movers[2].left = false;
+  CHECK(count_mover_points(map, movers, 0.0) == 2);  // (3.9, 0.1, 0.2) now lies where the car stands
 }
 
 TEST_CASE("parse_movers_json: the loopd-sim movers file, and hostile input rejected with a clear error", "[eval]") {
@@ -119,6 +126,10 @@ TEST_CASE("parse_movers_json: the loopd-sim movers file, and hostile input rejec
   CHECK(boxes[1].variant == 1);
   CHECK(boxes[0].max == Eigen::Vector3d(5.5, 4, 1.6));
   CHECK(boxes[1].min == Eigen::Vector3d(-10, 20, 0));
+  CHECK(boxes[0].left);  // no "left": counted as an object that left
+  REQUIRE(parse_movers_json(R"({"format":"loopd-movers","version":1,"movers":[{"id":1,"variant":1,"min":[0,0,0],"max":[1,1,1],"left":false}]})",
+                            &boxes) == std::nullopt);
+  CHECK_FALSE(boxes[0].left);
   REQUIRE(parse_movers_json(R"({"format":"loopd-movers","version":1,"movers":[]})", &boxes) == std::nullopt);
   CHECK(boxes.empty());
 
@@ -142,6 +153,7 @@ TEST_CASE("parse_movers_json: the loopd-sim movers file, and hostile input rejec
   CHECK(parse_error(head + R"({"id":1,"variant":0,"min":[0,0,0],"max":[1,1,1]},{"id":2,"variant":0,"min":[0,5,0],"max":[1,1,1]}]})") ==
         "movers[1]: min[1] is greater than max[1]");
   CHECK(parse_error(std::string(100000, '[')) == "movers file: not valid JSON");
+  CHECK(parse_error(head + R"({"id":1,"variant":0,"min":[0,0,0],"max":[1,1,1],"left":1}]})") == "movers[0].left: not a boolean");
 }
 
 TEST_CASE("VoxelAccumulator: the points of one voxel merge into their centroid, with their mean intensity", "[eval]") {

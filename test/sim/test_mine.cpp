@@ -1,4 +1,5 @@
 // The simulated mine (make_mine), its route (make_drive with route "mine") and the movers export (changing_movers).
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -150,6 +151,9 @@ TEST_CASE("changing_movers lists the objects whose state changes, with boxes aro
       for (const DriveScan& s : d.scans) shown.insert(d.town.active_variant(id, s.visit + d.car_visit_offset));
       CHECK((shown.size() >= 2) == (listed.count(id) == 1));
     }
+    // Each box says whether the object has left it by the last scan.
+    for (const MoverBox& m : movers) CHECK(m.left == (d.town.active_variant(m.movable_id, d.scans.back().visit + d.car_visit_offset) != m.variant));
+    CHECK(std::any_of(movers.begin(), movers.end(), [](const MoverBox& m) { return m.left; }));
     for (const Primitive& p : d.town.primitives) {
       if (p.movable_id < 0 || !listed.count(p.movable_id)) continue;
       bool inside = false;
