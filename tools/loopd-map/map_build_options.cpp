@@ -20,8 +20,13 @@ MapBuildConfig build_config(const MapBuildOptions& options) {
   return c;
 }
 
-bool read_build_poses(MapStore& store, const MapBuildOptions& options, bool progress, KeyframePoses* poses,
-                      std::vector<MapBuildKeyframe>* keyframes) {
+bool prepare_build(MapStore& store, const MapBuildOptions& options, bool progress, MapBuildConfig* config, KeyframePoses* poses,
+                   std::vector<MapBuildKeyframe>* keyframes) {
+  *config = build_config(options);
+  if (auto e = config->validate()) {
+    std::cerr << "loopd-map: " << *e << "\n";
+    return false;
+  }
   std::optional<SessionId> session;
   if (options.session) session = static_cast<SessionId>(*options.session);
   if (const StoreStatus st = read_keyframe_poses(store, options.odometry, session, progress, poses); !st.ok()) {

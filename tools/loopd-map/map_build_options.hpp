@@ -27,8 +27,10 @@ struct MapBuildOptions {
 /// @brief The build configuration the options ask for.
 MapBuildConfig build_config(const MapBuildOptions& options);
 
-/// @brief Poses read for a build, or why not (printed).
-bool read_build_poses(MapStore& store, const MapBuildOptions& options, bool progress, KeyframePoses* poses, std::vector<MapBuildKeyframe>* keyframes);
+/// @brief What a build needs: the configuration the options ask for (validated) and the keyframes' poses; false after
+/// printing why not.
+bool prepare_build(MapStore& store, const MapBuildOptions& options, bool progress, MapBuildConfig* config, KeyframePoses* poses,
+                   std::vector<MapBuildKeyframe>* keyframes);
 
 /// @brief The keyframes' map clouds from the store (a keyframe without one, or an unreadable one, is left out; the
 /// first unreadable one is kept in *error).

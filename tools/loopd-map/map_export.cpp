@@ -69,14 +69,10 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 int run_export_cloud(MapStore& store, const MapBuildOptions& o, const CommandOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
-  const MapBuildConfig config = build_config(o);
-  if (auto e = config.validate()) {
-    std::cerr << "loopd-map: " << *e << "\n";
-    return kExitBadInput;
-  }
+  MapBuildConfig config;
   KeyframePoses poses;
   std::vector<MapBuildKeyframe> keyframes;
-  if (!read_build_poses(store, o, options.progress, &poses, &keyframes)) return kExitBadInput;
+  if (!prepare_build(store, o, options.progress, &config, &poses, &keyframes)) return kExitBadInput;
   CloudWriter writer;  // opened first: a path it cannot write is refused before minutes of work
   if (auto e = writer.open(o.out)) {
     std::cerr << "loopd-map: " << *e << "\n";
@@ -101,14 +97,10 @@ int run_export_cloud(MapStore& store, const MapBuildOptions& o, const CommandOpt
 
 int run_export_octomap(MapStore& store, const MapBuildOptions& o, const CommandOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
-  const MapBuildConfig config = build_config(o);
-  if (auto e = config.octree.validate()) {
-    std::cerr << "loopd-map: " << *e << "\n";
-    return kExitBadInput;
-  }
+  MapBuildConfig config;
   KeyframePoses poses;
   std::vector<MapBuildKeyframe> keyframes;
-  if (!read_build_poses(store, o, options.progress, &poses, &keyframes)) return kExitBadInput;
+  if (!prepare_build(store, o, options.progress, &config, &poses, &keyframes)) return kExitBadInput;
   std::string read_error;
   OccupancyMap octree(config.octree);
   MapBuildStats stats;

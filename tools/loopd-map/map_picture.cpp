@@ -122,14 +122,10 @@ bool render(const std::string& dir, const HeightGrid& g, std::size_t loops, cons
 }  // namespace
 
 int run_picture(MapStore& store, const MapBuildOptions& o, const CommandOptions& options) {
-  const MapBuildConfig config = build_config(o);
-  if (auto e = config.validate()) {
-    std::cerr << "loopd-map: " << *e << "\n";
-    return kExitBadInput;
-  }
+  MapBuildConfig config;
   KeyframePoses poses;
   std::vector<MapBuildKeyframe> keyframes;
-  if (!read_build_poses(store, o, options.progress, &poses, &keyframes)) return kExitBadInput;
+  if (!prepare_build(store, o, options.progress, &config, &poses, &keyframes)) return kExitBadInput;
   PointCloud map;
   if (!o.picture_cloud.empty()) {
     CloudFile file = read_cloud_file(o.picture_cloud);

@@ -10,7 +10,7 @@
 #include "loopd/io/ply_format.hpp"
 
 namespace loopd {
-namespace {
+
 std::string lower_extension(const std::string& path) {
   const auto dot = path.find_last_of('.');
   if (dot == std::string::npos || path.find('/', dot) != std::string::npos) return "";
@@ -18,6 +18,8 @@ std::string lower_extension(const std::string& path) {
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return ext;
 }
+
+namespace {
 
 CloudFile failed(std::string error) {
   CloudFile f;

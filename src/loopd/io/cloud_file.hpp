@@ -23,6 +23,9 @@ CloudFile read_cloud_file(const std::string& path);
 ///        in errors.
 CloudFile parse_cloud_bytes(const std::string& bytes, const std::string& path);
 
+/// @brief The extension of `path`'s last component, lower case, without the dot ("" when it has none).
+std::string lower_extension(const std::string& path);
+
 /// @brief Reads a KITTI velodyne `.bin` file.
 CloudFile read_kitti_bin(const std::string& path);
 /// @brief Parses KITTI `.bin` bytes (a multiple of 16: float32 x, y, z, intensity a point).

@@ -1,5 +1,7 @@
 #include "loopd/io/cloud_writer.hpp"
 
+#include "loopd/io/cloud_file.hpp"
+
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -12,14 +14,6 @@ constexpr int kCountDigits = 13;                        ///< fits 2^40 points, t
 constexpr std::int64_t kMaxPoints = 9999999999999;      ///< largest count of kCountDigits digits
 constexpr std::size_t kPointBytes = 16;                 ///< float32 x, y, z, intensity
 constexpr std::size_t kChunkBytes = kPointBytes << 14;  ///< 16384 points a write (256 KiB)
-
-std::string lower_extension(const std::string& path) {
-  const auto dot = path.find_last_of('.');
-  if (dot == std::string::npos || path.find('/', dot) != std::string::npos) return "";
-  std::string ext = path.substr(dot + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext;
-}
 
 std::string count_field(std::int64_t n) {
   char s[kCountDigits + 1];
