@@ -6,6 +6,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "loopd/io/cloud_writer.hpp"
 #include "support/run_command.hpp"
 #include "support/temp_dir.hpp"
 
@@ -81,4 +82,10 @@ TEST_CASE("3D map: the corrected map is nearer ground truth than the odometry ma
   log = test::run_command(loopd_map + " export-cloud --session 7 --out " + dir.file("none.pcd"), &rc);
   CHECK(rc == 2);
   CHECK(log.find("no keyframes of session 7") != std::string::npos);
+  PointCloud stray;
+  stray.points = {{0.f, 0.f, 0.f}, {5e6f, 0.f, 0.f}};
+  REQUIRE_FALSE(write_cloud_file(dir.file("stray.pcd"), stray).has_value());
+  log = test::run_command(loopd_map + " picture --out " + dir.file("stray.png") + " --cloud " + dir.file("stray.pcd"), &rc);
+  CHECK(rc == 2);
+  CHECK(log.find("spans more than 1000 km") != std::string::npos);
 }

@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
     sub->add_flag("--keep-roadway-noise", build.keep_roadway_noise, "no roadway-section filter (Ren 2019 Sec. 3.5)");
     sub->add_flag("--keep-outliers", build.keep_outliers, "no statistical outlier filter");
   }
-  picture->add_option("--pixel", build.picture_cell, "[m] pixel size (default: the map in about 1400 pixels)");
+  picture->add_option("--pixel", build.picture_cell, "[m] pixel size (default: the map in about 1400 pixels)")->check(CLI::NonNegativeNumber);
   picture->add_option("--cloud", build.picture_cloud, "draw this exported map (.pcd or .ply, from export-cloud) instead of building it again");
 #endif
   for (CLI::App* sub : subs) sub->fallthrough();

@@ -28,6 +28,9 @@ struct HeightGrid {
   float lo = 0.0f, hi = 1.0f;  ///< colour range: 2nd and 98th percentile of the cells' heights
 };
 
+constexpr double kMaxExtent = 1e6;     ///< [m] a map wider than this is not drawn (a stray point, a hostile file)
+constexpr double kMaxPixels = 8000.0;  ///< pixels along the longer side at most
+
 /// `cell` 0: the map in about 1400 pixels, at least `min_cell` (a pixel smaller than the map's voxel leaves holes).
 HeightGrid rasterise(const PointCloud& map, double cell, double min_cell) {
   HeightGrid g;
@@ -36,8 +39,10 @@ HeightGrid rasterise(const PointCloud& map, double cell, double min_cell) {
     mn = mn.cwiseMin(p);
     mx = mx.cwiseMax(p);
   }
-  const double extent = std::max(static_cast<double>(mx.x() - mn.x()), static_cast<double>(mx.y() - mn.y()));
+  const double extent = std::max(static_cast<double>(mx.x()) - mn.x(), static_cast<double>(mx.y()) - mn.y());
+  if (!std::isfinite(extent) || extent > kMaxExtent) return g;  // nx = 0: the caller says why
   g.cell = cell > 0.0 ? cell : std::max(min_cell, extent / 1400.0);
+  g.cell = std::max(g.cell, extent / kMaxPixels);  // a pixel asked for too small for the map: as fine as allowed
   g.x0 = mn.x();
   g.y0 = mn.y();
   g.nx = std::max(1, static_cast<int>((mx.x() - mn.x()) / g.cell) + 1);
@@ -154,6 +159,12 @@ int run_picture(MapStore& store, const MapBuildOptions& o, const CommandOptions&
   }
   const std::string dir = tmpl;
   const HeightGrid grid = rasterise(map, o.picture_cell, 1.5 * (o.picture_cloud.empty() ? o.voxel : 0.2));
+  if (grid.nx == 0) {
+    std::cerr << "loopd-map: the map spans more than " << kMaxExtent / 1000.0 << " km (a stray point far away?): not drawn\n";
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+    return kExitBadInput;
+  }
   const std::size_t loops = write_overlays(store, poses, dir);
   const bool ok = write_matrix(dir + "/height.bin", grid) && render(dir, grid, loops, o);
   if (!ok) {

@@ -18,7 +18,7 @@ struct LoopDecision {
   KeyframeKey query, match;
   std::int64_t query_utime = 0, match_utime = 0;  ///< [us]
   LoopStatus status = LoopStatus::kCandidate;
-  std::string stage;  ///< gate, descriptor, fourpcs, gicp, degeneracy, hungarian, confirmation, session, accepted
+  std::string stage;  ///< gate, descriptor, fourpcs, gicp, degeneracy, hungarian, prior, confirmation, session, accepted
   std::string reason;
   double gate_distance = 0.0, gate_radius = 0.0, descriptor_distance = -1.0;
   double lcp_fraction = -1.0, icp_residual = -1.0, icp_fitness = -1.0, hungarian_consistency = -1.0, degeneracy = -1.0;
