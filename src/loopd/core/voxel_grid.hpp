@@ -139,6 +139,15 @@ class VoxelGrid {
     return &v;
   }
 
+  /// @brief The occupied voxels, sorted by key (a copy; the grid can take more points).
+  std::vector<Voxel> sorted_voxels() const& {
+    std::vector<Voxel> out = voxels_;
+    std::sort(out.begin(), out.end(), [](const Voxel& a, const Voxel& b) { return a.key < b.key; });
+    return out;
+  }
+  /// @brief Occupied voxels so far.
+  std::size_t size() const { return voxels_.size(); }
+
   /// @brief The occupied voxels, sorted by key (consumes the grid).
   std::vector<Voxel> sorted_voxels() && {
     std::sort(voxels_.begin(), voxels_.end(), [](const Voxel& a, const Voxel& b) { return a.key < b.key; });

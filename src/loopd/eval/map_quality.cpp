@@ -12,8 +12,7 @@
 namespace loopd {
 namespace {
 
-constexpr double kMaxVoxelIndex = 1073741824.0;  ///< 2^30: voxel indices stay well inside int32
-constexpr std::size_t kMaxMovers = 1000000;      ///< boxes in one movers file
+constexpr std::size_t kMaxMovers = 1000000;  ///< boxes in one movers file
 
 bool finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
 
@@ -110,51 +109,6 @@ double quantile(std::vector<double>* v, double q) {
 }
 
 }  // namespace
-
-std::size_t VoxelAccumulator::KeyHash::operator()(const Key& k) const {
-  // Teschner et al. 2003 spatial hash primes.
-  return static_cast<std::size_t>((static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.x)) * 73856093u) ^
-                                  (static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.y)) * 19349663u) ^
-                                  (static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.z)) * 83492791u));
-}
-
-VoxelAccumulator::VoxelAccumulator(double leaf) : leaf_(leaf) {
-  if (!(leaf_ > 0.0) || !std::isfinite(leaf_)) {
-    std::cerr << "VoxelAccumulator: leaf " << leaf << " is not a positive size; using 1 m\n";
-    leaf_ = 1.0;
-  }
-}
-
-void VoxelAccumulator::add(const Eigen::Vector3f& p, float intensity) {
-  const Eigen::Vector3d v = p.cast<double>() / leaf_;
-  if (!finite(p) || v.cwiseAbs().maxCoeff() >= kMaxVoxelIndex) {
-    ++skipped_;
-    return;
-  }
-  const Key key{static_cast<std::int32_t>(std::floor(v.x())), static_cast<std::int32_t>(std::floor(v.y())),
-                static_cast<std::int32_t>(std::floor(v.z()))};
-  Cell& c = voxels_[key];
-  c.sum += p.cast<double>();
-  c.intensity += std::isfinite(intensity) ? static_cast<double>(intensity) : 0.0;
-  ++c.count;
-  ++added_;
-}
-
-PointCloud VoxelAccumulator::cloud() const {
-  std::vector<std::pair<Key, const Cell*>> cells;
-  cells.reserve(voxels_.size());
-  for (const auto& [key, cell] : voxels_) cells.emplace_back(key, &cell);
-  std::sort(cells.begin(), cells.end(),
-            [](const auto& a, const auto& b) { return std::tie(a.first.x, a.first.y, a.first.z) < std::tie(b.first.x, b.first.y, b.first.z); });
-  PointCloud out;
-  out.reserve(cells.size());
-  for (const auto& [key, cell] : cells) {
-    const double n = static_cast<double>(cell->count);
-    out.points.push_back((cell->sum / n).cast<float>());
-    out.intensity.push_back(static_cast<float>(cell->intensity / n));
-  }
-  return out;
-}
 
 std::optional<std::string> parse_movers_json(const std::string& text, std::vector<MapMoverBox>* out) {
   try {

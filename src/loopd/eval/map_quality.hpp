@@ -3,47 +3,12 @@
 #include <cstdint>
 #include <optional>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include "loopd/core/point_cloud.hpp"
+#include "loopd/core/voxel_accumulator.hpp"
 
 namespace loopd {
-
-/// @brief Merges points into voxels of a fixed leaf: each voxel keeps the sum and count of its points (and of their
-///        intensity), so cloud() gives one centroid per voxel. Memory grows with the occupied voxels, not the points.
-class VoxelAccumulator {
- public:
-  /// @param leaf [m] voxel edge (> 0; a non-positive or non-finite leaf is taken as 1 m with a warning on std::cerr).
-  explicit VoxelAccumulator(double leaf);
-  /// @brief Adds one point [m]; non-finite points and points beyond 2^30 voxels of the origin are skipped (counted).
-  void add(const Eigen::Vector3f& p, float intensity);
-  /// @brief One point per voxel: the centroid of its points, with their mean intensity; ordered by voxel key
-  ///        (deterministic for the same points).
-  PointCloud cloud() const;
-  /// @brief Occupied voxels.
-  std::size_t size() const { return voxels_.size(); }
-  std::int64_t points_added() const { return added_; }
-  std::int64_t points_skipped() const { return skipped_; }
-  double leaf() const { return leaf_; }
-
- private:
-  struct Key {
-    std::int32_t x = 0, y = 0, z = 0;
-    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
-  };
-  struct KeyHash {
-    std::size_t operator()(const Key& k) const;
-  };
-  struct Cell {
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    double intensity = 0.0;
-    std::int64_t count = 0;
-  };
-  double leaf_;
-  std::unordered_map<Key, Cell, KeyHash> voxels_;
-  std::int64_t added_ = 0, skipped_ = 0;
-};
 
 /// @brief An axis-aligned box [m, world frame] that a moving object (a parked car that moves between visits)
 ///        occupies at some time of the drive; map points inside it belong to an object that is not always there.

@@ -3,7 +3,7 @@
 #include <chrono>
 
 #include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/voxel_grid.hpp"
+#include "loopd/core/voxel_accumulator.hpp"
 #include "loopd/mapping/point_mask.hpp"
 #include "loopd/mapping/ray_margins.hpp"
 
@@ -26,8 +26,7 @@ std::vector<std::uint8_t> kept_entries(const std::vector<std::uint8_t>& mask, co
 /// Pass 2: every keyframe's cloud in the map frame, points in free leaves dropped, merged into voxels.
 PointCloud merge_keyframes(const std::vector<MapBuildKeyframe>& keyframes, const MapCloudSource& clouds, const MapBuildConfig& config,
                            const OccupancyMap* octree, const MapBuildProgress& progress, MapBuildStats* stats) {
-  VoxelGrid<double> grid(config.voxel, 1u << 20);  // payload: intensity sum
-  bool any_intensity = false;
+  VoxelAccumulator voxels(config.voxel);
   for (std::size_t k = 0; k < keyframes.size(); ++k) {
     if (progress) progress("merge", k, keyframes.size());
     std::optional<PointCloud> cloud = clouds(keyframes[k].key);
@@ -38,27 +37,17 @@ PointCloud merge_keyframes(const std::vector<MapBuildKeyframe>& keyframes, const
     if (!cloud) continue;
     const PointCloud world = transform(*cloud, keyframes[k].T_map_sensor);
     const bool has_i = world.has_intensity();
-    any_intensity = any_intensity || has_i;
     for (std::size_t i = 0; i < world.size(); ++i) {
       const Eigen::Vector3f& p = world.points[i];
-      if (!p.allFinite()) continue;
-      if (octree && octree->at(p) == Occupancy::kFree) {
+      if (octree && p.allFinite() && octree->at(p) == Occupancy::kFree) {
         ++stats->points_cleared;
         continue;
       }
-      if (auto* v = grid.add(p)) v->payload += has_i ? world.intensity[i] : 0.0;
+      voxels.add(p, has_i ? world.intensity[i] : 0.0f);
     }
   }
   if (progress) progress("merge", keyframes.size(), keyframes.size());
-  PointCloud map;
-  auto voxels = std::move(grid).sorted_voxels();
-  map.points.reserve(voxels.size());
-  if (any_intensity) map.intensity.reserve(voxels.size());
-  for (const auto& v : voxels) {
-    map.points.push_back(v.centroid());
-    if (any_intensity) map.intensity.push_back(static_cast<float>(v.payload / v.count));
-  }
-  return map;
+  return std::move(voxels).cloud();
 }
 
 /// The roadway-section filter, then the statistical filter on what no tunnel section covered.
