@@ -67,7 +67,7 @@ int main(int argc, char** argv) {
       "loopd: lidar loop-closure daemon. Listens for scans and odometry poses on LCM, detects and verifies loops\n"
       "(M2DP + plane-based 4PCS + GICP + Hungarian check), publishes loop events and corrected trajectories."};
   std::string lcm_url, config_path, replay_log, output_log, sensor, map_path;
-  int threads = -1;
+  int threads = -1, vehicle = -2;
   bool print_config = false, quiet = false;
   app.set_version_flag("--version", std::string("loopd ") + LOOPD_VERSION);
   app.add_option("--lcm-url", lcm_url, "LCM URL to listen and publish on (default from config: udpm://239.255.76.67:7667?ttl=0)");
@@ -77,8 +77,11 @@ int main(int argc, char** argv) {
   app.add_option("--replay", replay_log, "process an lcm-logger file as fast as possible instead of listening live");
   app.add_option("--output", output_log, "with --replay: write every published message to this lcm-logger file");
   app.add_option("--map", map_path,
-                 "map store (SQLite file, created when missing): keyframes, loops and corrections outlive the "
-                 "process and a restart resumes (overrides map.path)");
+                 "map store: an SQLite file (created when missing) or a postgresql:// URI (a map shared by a fleet): "
+                 "keyframes, loops and corrections outlive the process and a restart resumes (overrides map.path)");
+  app.add_option("--vehicle", vehicle,
+                 "fleet vehicle number (0-2146) on a shared postgresql:// map: its sessions, the others' keyframes as loop "
+                 "candidates, one joint correction (overrides fleet.vehicle)");
   app.add_flag("--print-config", print_config, "print the effective configuration as YAML and exit");
   app.add_flag("--quiet", quiet, "no log line per accepted loop");
   CLI11_PARSE(app, argc, argv);
@@ -96,7 +99,13 @@ int main(int argc, char** argv) {
   if (!lcm_url.empty()) config.node.lcm_url = lcm_url;
   if (threads >= 0) config.engine.num_threads = threads;
   if (!map_path.empty()) config.node.map.uri = map_path;
+  if (vehicle != -2) config.node.fleet.vehicle = vehicle;
   config.node.quiet = quiet;
+  loopd::apply_fleet(&config);
+  if (auto e = config.node.validate()) {
+    std::cerr << "loopd: bad config: " << *e << std::endl;
+    return 2;
+  }
   if (auto e = config.engine.validate()) {
     std::cerr << "loopd: bad config: " << *e << std::endl;
     return 2;

@@ -269,6 +269,11 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("map.cloud_min_range", c.engine.map_cloud.min_range);
   b.field("map.cloud_max_range", c.engine.map_cloud.max_range);
   b.field("map.cloud_quantum", c.engine.map_cloud.quantum);
+  b.field("map.max_buffered_keyframes", n.max_buffered_keyframes);
+  b.field("fleet.vehicle", n.fleet.vehicle);
+  b.field("fleet.poll_interval", n.fleet.poll_interval);
+  b.field("fleet.solve_every_keyframes", n.fleet.solve_every_keyframes);
+  b.field("fleet.flush_timeout", n.fleet.flush_timeout);
   b.field("output.trajectory_min_move", n.trajectory_output.min_move);
   b.field("output.trajectory_min_turn_deg", n.trajectory_output.min_turn_deg);
   b.field("output.trajectory_snapshot_period", n.trajectory_output.snapshot_period);
@@ -431,6 +436,14 @@ std::string dump_config(const DaemonConfig& config) {
   YAML::Emitter out;
   out << root;
   return std::string(out.c_str()) + "\n";
+}
+
+void apply_fleet(DaemonConfig* config) {
+  NodeConfig& n = config->node;
+  const bool postgres = n.map.uri.rfind("postgresql://", 0) == 0 || n.map.uri.rfind("postgres://", 0) == 0;
+  if (postgres && n.fleet.vehicle < 0) n.fleet.vehicle = 0;
+  n.map.vehicle = n.fleet.vehicle;
+  config->engine.sessions.first_session = n.fleet.vehicle > 0 ? n.fleet.vehicle * kSessionsPerVehicle : 0;
 }
 
 }  // namespace loopd

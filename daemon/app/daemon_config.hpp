@@ -22,6 +22,10 @@ bool load_config(const std::string& path, DaemonConfig* config, std::string* err
 /// @brief Same, from YAML text.
 bool load_config_text(const std::string& yaml, DaemonConfig* config, std::string* error);
 
+/// @brief A shared (postgresql://) map makes this process a fleet vehicle (0 unless fleet.vehicle says): the map store is
+/// scoped to the vehicle and its sessions are numbered from vehicle * kSessionsPerVehicle. Call after every override.
+void apply_fleet(DaemonConfig* config);
+
 /// @brief The whole effective configuration as YAML (for --print-config).
 std::string dump_config(const DaemonConfig& config);
 

@@ -58,12 +58,12 @@ class OutputSink : public EngineSink {
     last_data_utime_ = d.query_utime;
   }
   void on_correction(const CorrectionOutput& c) override {
-    const std::int64_t t = data_time_ ? last_data_utime_ : wall_utime();
+    const std::int64_t t = data_time_ ? last_data_utime_.load() : wall_utime();
     publish(node_.trajectory_channel, t, trajectory_.make_message(c, t));
   }
   /// Every keyframe of the last correction, when the last trajectory_t was partial (end of a run).
   void finish_trajectory() {
-    const std::int64_t t = data_time_ ? last_data_utime_ : wall_utime();
+    const std::int64_t t = data_time_ ? last_data_utime_.load() : wall_utime();
     if (auto m = trajectory_.final_snapshot(t)) publish(node_.trajectory_channel, t, *m);
   }
   template <typename Msg>
@@ -86,7 +86,7 @@ class OutputSink : public EngineSink {
   TrajectoryPublisher trajectory_{node_.trajectory_output};
   std::mutex mutex_;
   std::int64_t written_ = 0;
-  std::int64_t last_data_utime_ = 0;
+  std::atomic<std::int64_t> last_data_utime_{0};  ///< the fleet thread publishes joint corrections at it
 };
 
 /// Decoded input waiting for the ingest thread, with the time it arrived (wall clock live, logger time in replay).
@@ -286,11 +286,12 @@ int fault_correction_delay_ms() {
 }
 
 /// The map's first session, created on a new map (later sessions are written with their first keyframe, MapWriter).
-bool ensure_session(MapStore& store, const std::string& sensor, const std::string& source) {
+bool ensure_session(MapStore& store, SessionId first_session, const std::string& sensor, const std::string& source) {
   const StoreResult<std::vector<SessionRecord>> sessions = store.sessions();
   StoreStatus status = sessions.status;
   if (status.ok() && sessions.value.empty()) {
     SessionRecord s;
+    s.id = first_session;
     s.sensor = sensor;
     s.source = source;
     status = store.put_session(s);
@@ -320,9 +321,9 @@ MapStatus map_status(const MapSession& map, const NodeConfig& node, const Engine
 }
 
 /// Brings the engine to where the map stopped. False, with the reason printed, when it cannot.
-bool resume_from_map(MapSession& map, LoopdEngine& engine, bool skip_stored_keyframes, const std::string& sensor, const std::string& source) {
+bool resume_from_map(MapSession& map, LoopdEngine& engine, bool skip_stored_keyframes, const EngineConfig& config, const std::string& source) {
   if (!map.store) return true;
-  if (!ensure_session(*map.store, sensor, source)) return false;
+  if (!ensure_session(*map.store, config.sessions.first_session, config.detector.sensor, source)) return false;
   const ResumeSummary r = engine.resume(*map.store, skip_stored_keyframes);
   if (!r.ok) {
     std::cerr << "loopd: " << r.error << std::endl;
@@ -394,6 +395,37 @@ std::unique_ptr<FaultStallSink> fault_stall_sink(EngineSink& next) {
   return std::make_unique<FaultStallSink>(next, stall->first, stall->second);
 }
 
+/// In a fleet (node.fleet.vehicle >= 0): the fleet thread on its own connection, feeding the engine the other
+/// vehicles' keyframes and publishing the joint correction through `sink`. Null (the reason printed) when it cannot.
+std::unique_ptr<FleetSync> start_fleet(const NodeConfig& node, const EngineConfig& engine_config, const MapSession& map, LoopdEngine& engine,
+                                       OutputSink& sink) {
+  if (node.fleet.vehicle < 0 || !map.store) return nullptr;
+  const KeyframeLoad remote_load = node.map_cache_mb > 0.0 ? KeyframeLoad::kDescriptor : KeyframeLoad::kFull;
+  auto fleet = std::make_unique<FleetSync>(node.fleet, node.map, engine_config.detector.correction, remote_load,
+                                           [&sink](const CorrectionOutput& c) { sink.on_correction(c); });
+  if (auto e = fleet->start()) {
+    std::cerr << "loopd: cannot join the fleet: " << *e << std::endl;
+    return nullptr;
+  }
+  FleetSync* feed = fleet.get();
+  engine.set_remote_feed([feed] { return feed->take_remote(); });
+  if (log_enabled(LogLevel::kInfo))
+    std::fprintf(stderr, "loopd: fleet vehicle %d on %s: sessions from %d, the others' keyframes read every %.1f s\n", node.fleet.vehicle,
+                 map.store->uri().c_str(), engine_config.sessions.first_session, node.fleet.poll_interval);
+  return fleet;
+}
+
+/// At the end of a run: buffered map writes get up to fleet.flush_timeout to reach an unavailable server, then the
+/// fleet's last round (read, solve, publish).
+void finish_map(const NodeConfig& node, MapSession& map, FleetSync* fleet) {
+  if (map.writer && !map.writer->flush(node.fleet.flush_timeout)) {
+    const MapWriterStats w = map.writer->stats();
+    std::fprintf(stderr, "loopd: MAP WRITES LOST: %lld write(s) still waited for the map server after %.0f s: %s\n",
+                 static_cast<long long>(w.buffered), node.fleet.flush_timeout, w.last_error.c_str());
+  }
+  if (fleet) fleet->stop();
+}
+
 /// Handles LCM until `stop`, polling the service link at least every 100 ms. False after an LCM error.
 bool handle_lcm_until_stopped(lcm::LCM& lcm, const std::atomic<bool>& stop, ServiceLink& service) {
   while (!stop.load()) {
@@ -421,6 +453,10 @@ std::optional<std::string> NodeConfig::validate() const {
     if (auto e = map.validate()) return "map: " + *e;
   if (!(map_cache_mb >= 0.0 && map_cache_mb <= 1e7)) return "map.cache_mb must be in [0, 1e7] [MB]";
   if (auto e = trajectory_output.validate()) return *e;
+  if (auto e = fleet.validate()) return *e;
+  const bool postgres = map.uri.rfind("postgresql://", 0) == 0 || map.uri.rfind("postgres://", 0) == 0;
+  if (fleet.vehicle >= 0 && !postgres) return "fleet.vehicle needs a shared map (map.path postgresql://...)";
+  if (max_buffered_keyframes < 1) return "map.max_buffered_keyframes must be >= 1";
   return std::nullopt;
 }
 
@@ -461,9 +497,12 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   MapSession map;
   if (!open_map(node, &map)) return 2;
   OutputSink sink(node, &lcm, nullptr, false);
+  LocalCorrectionFilter fleet_output(sink);  // in a fleet the joint correction is published, not the detector's
   if (map.store) {
-    map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n, fault_correction_delay_ms());
+    map.writer = std::make_unique<MapWriter>(*map.store, node.fleet.vehicle >= 0 ? static_cast<EngineSink&>(fleet_output) : sink, node.log_every_n,
+                                             fault_correction_delay_ms());
     map.writer->set_session_origin(engine_config.detector.sensor, "live " + node.lcm_url);
+    map.writer->set_max_buffered_keyframes(node.max_buffered_keyframes);
   }
   EngineSink* first_sink = map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink;
   const std::unique_ptr<FaultStallSink> stall = fault_stall_sink(*first_sink);
@@ -473,7 +512,9 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   LoopdEngine engine(live_config, first_sink);
   if (map.store && node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
   if (map.store) engine.make_map_clouds();
-  if (!resume_from_map(map, engine, false, engine_config.detector.sensor, "live " + node.lcm_url)) return 2;
+  if (!resume_from_map(map, engine, false, engine_config, "live " + node.lcm_url)) return 2;
+  const std::unique_ptr<FleetSync> fleet = start_fleet(node, engine_config, map, engine, sink);
+  if (node.fleet.vehicle >= 0 && !fleet) return 2;
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
 
@@ -537,6 +578,8 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   }
   qcv.notify_all();
   ingest_thread.join();
+  engine.finish();
+  finish_map(node, map, fleet.get());
   fill_summary(summary, engine, handler);
   if (summary) summary->seconds = wall_s() - start;
   return lcm_ok ? 0 : 3;
@@ -572,14 +615,19 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   EngineConfig config = engine_config;
   config.block_when_full = true;  // replay never sheds: it waits for the workers
   OutputSink sink(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
+  LocalCorrectionFilter fleet_output(sink);  // in a fleet the joint correction is published, not the detector's
   if (map.store) {
-    map.writer = std::make_unique<MapWriter>(*map.store, sink, node.log_every_n, fault_correction_delay_ms());
+    map.writer = std::make_unique<MapWriter>(*map.store, node.fleet.vehicle >= 0 ? static_cast<EngineSink&>(fleet_output) : sink, node.log_every_n,
+                                             fault_correction_delay_ms());
     map.writer->set_session_origin(engine_config.detector.sensor, "replay " + input_log);
+    map.writer->set_max_buffered_keyframes(node.max_buffered_keyframes);
   }
   LoopdEngine engine(config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
   if (map.store && node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
   if (map.store) engine.make_map_clouds();
-  if (!resume_from_map(map, engine, true, engine_config.detector.sensor, "replay " + input_log)) return 2;
+  if (!resume_from_map(map, engine, true, engine_config, "replay " + input_log)) return 2;
+  const std::unique_ptr<FleetSync> fleet = start_fleet(node, engine_config, map, engine, sink);
+  if (node.fleet.vehicle >= 0 && !fleet) return 2;
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
   std::int64_t last_data_utime = 0, first_data_utime = 0, next_status_utime = 0;
@@ -605,6 +653,7 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   }
   if (!reader.problems().empty()) std::cerr << "loopd: " << reader.problems() << " (the rest of the log was read)" << std::endl;
   engine.finish();
+  finish_map(node, map, fleet.get());
   sink.finish_trajectory();
   const EngineStats s = engine.stats();
   health_log.update(s, node.log_every_n);

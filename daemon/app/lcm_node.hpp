@@ -6,6 +6,7 @@
 
 #include "log_level.hpp"
 #include "loopd/map/map_store.hpp"
+#include "fleet_sync.hpp"
 #include "loopd_engine.hpp"
 #include "trajectory_publisher.hpp"
 
@@ -35,6 +36,8 @@ struct NodeConfig {
   double map_cache_mb = 512.0;
   /// How much of the corrected trajectory each revision publishes (output.*).
   TrajectoryPublisherConfig trajectory_output;
+  FleetConfig fleet;                           ///< a fleet on one shared (postgresql://) map (fleet.*)
+  std::int64_t max_buffered_keyframes = 5000;  ///< map.max_buffered_keyframes: writes kept while the map server is away
   std::optional<std::string> validate() const;
 };
 

@@ -290,6 +290,9 @@ void LoopdEngine::complete(std::int64_t sequence, ReadyKeyframe keyframe) {
 }
 
 void LoopdEngine::run_sequential(ReadyKeyframe& item) {
+  // Other vehicles' keyframes read since the last keyframe become candidates first (a fleet on one map).
+  if (remote_feed_)
+    for (KeyframeRecord& remote : remote_feed_()) detector_.add_remote_keyframe(std::move(remote));
   // Each decision goes out as soon as it is made; an accepted loop's correction follows.
   DetectorOutput out = detector_.add_keyframe(
       item.input, item.features,

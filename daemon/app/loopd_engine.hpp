@@ -3,6 +3,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -122,6 +123,9 @@ class LoopdEngine {
   /// @brief Before any input: workers also reduce each keyframe's (deskewed) scan to its map cloud (config.map_cloud)
   /// and encode it for the sink (the map writer stores it; nothing of it is kept in memory).
   void make_map_clouds() { map_clouds_ = config_.map_cloud.enabled; }
+  /// @brief Before any input: other vehicles' keyframes (a fleet on one map), taken by the sequential stage before each
+  /// keyframe of this vehicle and added to the detector as candidates (LoopDetector::add_remote_keyframe).
+  void set_remote_feed(std::function<std::vector<KeyframeRecord>()> feed) { remote_feed_ = std::move(feed); }
   /// @brief Keyframes recognised as already in the map and skipped (replay resume).
   std::int64_t keyframes_skipped() const { return keyframes_skipped_.load(); }
   /// @brief How far each stage got and whether work waits for it; callable from any thread.
@@ -169,6 +173,7 @@ class LoopdEngine {
   SessionKeys session_keys_;  ///< session and index of each keyframe (ingest thread)
   std::int64_t next_sequence_ = 0;
   bool features_in_store_ = false;
+  std::function<std::vector<KeyframeRecord>()> remote_feed_;
   bool map_clouds_ = false;
   std::atomic<std::int64_t> keyframes_skipped_{0};
   double residual_since_keyframe_ = 0.0;

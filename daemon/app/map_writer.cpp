@@ -1,6 +1,7 @@
 #include "map_writer.hpp"
 
 #include <chrono>
+#include <optional>
 #include <cstdio>
 #include <thread>
 
@@ -77,24 +78,31 @@ StoreStatus MapWriter::put_alignments(const std::vector<SessionAlignment>& align
 
 void MapWriter::on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor, const MapCloudBlob& map_cloud) {
   decided_with_correction_ = false;
-  if (stopped_) return failed("keyframe " + to_string(keyframe.key), stopped_status());
-  if (const StoreStatus s = retry_busy([&] { return ensure_session(keyframe.key.session, keyframe.utime); }); !s.ok())
-    return failed("session " + std::to_string(keyframe.key.session), s);
-  const StoreStatus s = retry_busy([&] { return store_.put_keyframe(MapKeyframe{keyframe, T_map_sensor, map_cloud}); });
-  if (!s.ok()) return failed("keyframe " + to_string(keyframe.key), s);
-  std::lock_guard<std::mutex> lock(stats_mutex_);
-  ++stats_.keyframes_written;
-  if (map_cloud) stats_.map_cloud_bytes += static_cast<std::int64_t>(map_cloud->size());
+  const std::int64_t cloud_bytes = map_cloud ? static_cast<std::int64_t>(map_cloud->size()) : 0;
+  write(
+      "keyframe " + to_string(keyframe.key),
+      [this, record = MapKeyframe{keyframe, T_map_sensor, map_cloud}, cloud_bytes] {
+        if (StoreStatus s = ensure_session(record.record.key.session, record.record.utime); !s.ok()) return s;
+        StoreStatus s = store_.put_keyframe(record);
+        if (s.ok()) {
+          std::lock_guard<std::mutex> lock(stats_mutex_);
+          ++stats_.keyframes_written;
+          stats_.map_cloud_bytes += cloud_bytes;
+        }
+        return s;
+      },
+      true);
 }
 
 void MapWriter::on_decision(const LoopDecision& decision) {
-  const StoreStatus s = stopped_ ? stopped_status() : retry_busy([&] { return store_.put_loop(to_loop_record(decision)); });
-  if (s.ok()) {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++stats_.decisions_written;
-  } else {
-    failed("loop event " + std::to_string(decision.event_id), s);
-  }
+  write("loop event " + std::to_string(decision.event_id), [this, record = to_loop_record(decision)] {
+    StoreStatus s = store_.put_loop(record);
+    if (s.ok()) {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.decisions_written;
+    }
+    return s;
+  });
   next_.on_decision(decision);
 }
 
@@ -102,35 +110,95 @@ void MapWriter::on_correction(const CorrectionOutput& correction) {
   if (correction_delay_ms_ > 0) std::this_thread::sleep_for(std::chrono::milliseconds(correction_delay_ms_));
   // The correction and "its keyframe is decided" in one transaction: a stop between them would leave a correction
   // naming a keyframe that resume removes.
-  const CorrectionRecord record = to_correction_record(correction);
-  auto transaction = [&] {
-    StoreStatus s = store_.begin();
-    if (!s.ok()) return s;
-    s = store_.put_correction(record);
-    if (s.ok()) s = put_alignments(correction.sessions);
-    if (s.ok() && !correction.keys.empty()) s = store_.mark_decided(correction.keys.back());
-    if (s.ok()) s = store_.commit();
-    if (!s.ok()) store_.rollback();
-    return s;
-  };
-  const StoreStatus s = stopped_ ? stopped_status() : retry_busy(transaction);
-  if (s.ok()) {
-    decided_with_correction_ = true;
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++stats_.corrections_written;
-  } else {
-    failed("correction revision " + std::to_string(correction.revision), s);
-  }
+  decided_with_correction_ = true;
+  std::optional<KeyframeKey> decided;
+  if (!correction.keys.empty()) decided = correction.keys.back();
+  write("correction revision " + std::to_string(correction.revision),
+        [this, record = to_correction_record(correction), alignments = correction.sessions, decided] {
+          StoreStatus s = store_.begin();
+          if (!s.ok()) return s;
+          s = store_.put_correction(record);
+          if (s.ok()) s = put_alignments(alignments);
+          if (s.ok() && decided) s = store_.mark_decided(*decided);
+          if (s.ok()) s = store_.commit();
+          if (!s.ok()) store_.rollback();
+          if (s.ok()) {
+            std::lock_guard<std::mutex> lock(stats_mutex_);
+            ++stats_.corrections_written;
+          }
+          return s;
+        });
   next_.on_correction(correction);
 }
 
 void MapWriter::on_keyframe_decided(const KeyframeKey& keyframe) {
-  if (!decided_with_correction_) {
-    const StoreStatus s = stopped_ ? stopped_status() : retry_busy([&] { return store_.mark_decided(keyframe); });
-    if (!s.ok()) failed("keyframe " + to_string(keyframe) + " decided", s);
-  }
+  if (!decided_with_correction_) write("keyframe " + to_string(keyframe) + " decided", [this, keyframe] { return store_.mark_decided(keyframe); });
   decided_with_correction_ = false;
   next_.on_keyframe_decided(keyframe);
+}
+
+void MapWriter::write(std::string what, std::function<StoreStatus()> transaction, bool keyframe) {
+  if (stopped_) return failed(what, stopped_status());
+  if (!pending_.empty()) flush_pending(false);
+  if (pending_.empty()) {
+    const StoreStatus s = retry_busy(transaction);
+    if (s.ok()) return;
+    if (s.code != StoreStatus::Code::kUnavailable) return failed(what, s);
+    unavailable(s);
+  }
+  if (keyframe && ++buffered_keyframes_ > max_buffered_keyframes_) {
+    StoreStatus full;
+    full.code = StoreStatus::Code::kIo;
+    full.message = "more than " + std::to_string(max_buffered_keyframes_) + " keyframes wait for the map server (map.max_buffered_keyframes)";
+    pending_.clear();
+    return failed(what, full);
+  }
+  pending_.push_back({std::move(what), std::move(transaction), keyframe});
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.buffered = static_cast<std::int64_t>(pending_.size());
+}
+
+void MapWriter::unavailable(const StoreStatus& status) {
+  if (!buffering_)
+    std::fprintf(stderr, "loopd: map server unavailable: %s; buffering the map's writes in memory until it is back\n", status.message.c_str());
+  buffering_ = true;
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.last_error = status.message;
+}
+
+bool MapWriter::flush_pending(bool wait) {
+  // The store reconnects at most once a second: without `wait`, one try per call.
+  while (!pending_.empty() && !stopped_) {
+    Pending& next = pending_.front();
+    const StoreStatus s = retry_busy(next.transaction);
+    if (s.code == StoreStatus::Code::kUnavailable) {
+      if (!wait) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(250));
+      if (std::chrono::steady_clock::now() >= flush_deadline_) return false;
+      continue;
+    }
+    if (!s.ok()) {
+      failed(next.what, s);
+      pending_.clear();
+      break;
+    }
+    if (next.keyframe) --buffered_keyframes_;
+    pending_.pop_front();
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.flushed;
+  }
+  if (pending_.empty() && buffering_) {
+    std::fprintf(stderr, "loopd: map server back: every buffered write is stored\n");
+    buffering_ = false;
+  }
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.buffered = static_cast<std::int64_t>(pending_.size());
+  return pending_.empty();
+}
+
+bool MapWriter::flush(double timeout_s) {
+  flush_deadline_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<std::int64_t>(timeout_s * 1000.0));
+  return flush_pending(true);
 }
 
 StoreStatus MapWriter::stopped_status() {

@@ -17,6 +17,7 @@ void SessionKeys::restore(const std::vector<KeyframeKey>& keys, const std::vecto
   stored_utimes_ = utimes;
   stored_at_utime_.clear();
   for (std::size_t i = 0; i < utimes.size() && i < keys.size(); ++i) stored_at_utime_.emplace(utimes[i], i);
+  max_session_ = std::max<SessionId>(max_session_, policy_.first_session - 1);
   for (const KeyframeKey& k : keys) max_session_ = std::max(max_session_, k.session);
   T_odom_newest_ = T_odom_newest;
   skip_stored_ = skip_stored && !keys.empty();
@@ -34,7 +35,7 @@ void SessionKeys::open_session(const std::string& why, Assigned& out) {
 
 void SessionKeys::choose(std::int64_t utime, const Eigen::Isometry3d& T_odom_sensor, Assigned& out) {
   if (stored_keys_.empty()) {  // a new map (or none): the first session
-    session_ = std::max<SessionId>(max_session_, 0);
+    session_ = std::max<SessionId>(max_session_, policy_.first_session);
     max_session_ = session_;
     chosen_ = true;
     return;

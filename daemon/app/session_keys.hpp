@@ -19,13 +19,16 @@ struct SessionPolicy {
   double resume_max_gap = 60.0;      ///< [s] a drive continues the map's newest session only if it starts this soon after it
   double max_speed = 60.0;           ///< [m/s] ... and no farther from its last keyframe than this speed allows
   double min_jump = 2.0;             ///< [m] (never less than this)
+  /// The first session id this process may open (a fleet vehicle V: V * kSessionsPerVehicle; ids below it are other
+  /// vehicles'). New sessions are numbered from it, or after the newest restored one.
+  SessionId first_session = 0;
   std::optional<std::string> validate() const;
 };
 
 /// @brief Keys for the keyframes of this run, on the ingest thread.
 class SessionKeys {
  public:
-  explicit SessionKeys(const SessionPolicy& policy) : policy_(policy) {}
+  explicit SessionKeys(const SessionPolicy& policy) : policy_(policy), max_session_(policy.first_session - 1) {}
 
   /// @brief The map's keyframes (resume, in map order) and the odometry pose of the newest one. With skip_stored, the
   /// keyframes of a replay that the map already holds are recognised by their scan times (and skipped).

@@ -73,4 +73,31 @@ struct MapStats {
   std::int64_t bytes = 0;                                                  ///< on disk (database + journal)
 };
 
+/// @brief The fleet's joint correction: every session's keyframes and every vehicle's accepted loops solved as one pose
+/// graph by the vehicle holding the solver lock (map/shared_map.hpp), so every vehicle publishes the same map.
+struct FleetCorrectionRecord {
+  std::int64_t revision = 0;                    ///< increases by one with every joint solve (set by put_fleet_correction)
+  int solver_vehicle = -1;                      ///< the vehicle that solved it
+  std::int64_t loops = 0;                       ///< accepted loops in the graph
+  std::int64_t solved_utime = 0;                ///< [us] wall clock when it was solved
+  std::vector<KeyframeKey> keys;                ///< every keyframe of every session, by key
+  std::vector<Eigen::Isometry3d> T_map_sensor;  ///< corrected poses, by keys
+  std::vector<std::int64_t> utimes;             ///< [us] scan times, by keys
+  /// Every session, by id.
+  struct Session {
+    SessionId id = 0;
+    bool anchored = false;                                            ///< tied to the map's first session by loops
+    Eigen::Isometry3d T_map_session = Eigen::Isometry3d::Identity();  ///< at the session's newest keyframe
+    std::int64_t keyframes = 0;
+  };
+  std::vector<Session> sessions;
+};
+
+/// @brief How much a fleet map holds (the solver re-solves when these grow).
+struct FleetCounts {
+  std::int64_t keyframes = 0;        ///< decided keyframes of every vehicle
+  std::int64_t loops_accepted = 0;   ///< accepted loops of every vehicle
+  std::int64_t newest_revision = 0;  ///< of the joint correction (0: none yet)
+};
+
 }  // namespace loopd

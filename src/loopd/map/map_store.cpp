@@ -32,6 +32,8 @@ const char* to_string(StoreStatus::Code code) {
       return "kIo";
     case StoreStatus::Code::kInvalid:
       return "kInvalid";
+    case StoreStatus::Code::kUnavailable:
+      return "kUnavailable";
   }
   return "unknown";
 }

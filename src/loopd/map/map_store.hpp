@@ -23,6 +23,9 @@ struct StoreStatus {
     kCorrupt,   ///< damaged file or record, or a schema this build does not know
     kIo,        ///< the disk refused (full, read-only, gone)
     kInvalid,   ///< bad argument or configuration
+    /// the database server cannot be reached (connection lost, server restarting): the write did not happen and may be
+    /// tried again later (the store reconnects on the next call, at most once a second)
+    kUnavailable,
   };
   Code code = Code::kOk;
   std::string message;  ///< what happened, naming the map and the record
@@ -39,9 +42,15 @@ struct StoreResult {
 
 /// @brief Where the map lives and how hard it holds on to what it was told.
 struct MapStoreConfig {
-  /// "FILE" or "sqlite://FILE" (an SQLite file, created when missing), "sqlite::memory:" (tests);
-  /// "postgresql://..." later.
+  /// "FILE" or "sqlite://FILE" (an SQLite file, created when missing), "sqlite::memory:" (tests), or
+  /// "postgresql://[user[:password]@][host][:port]/database[?param=value...]" (a libpq connection URI, e.g.
+  /// "postgresql://loopd:secret@/fleet?host=/run/postgresql"): a map shared by a fleet on a PostgreSQL server.
   std::string uri;
+  /// The fleet vehicle this process writes for (PostgreSQL only; -1: none). Its sessions are numbered
+  /// vehicle * kSessionsPerVehicle + k, and the MapStore verbs (for_each_keyframe(nullopt), for_each_loop, correction,
+  /// drop_undecided, stats, check) see only its own sessions and decisions; the other vehicles' are read through
+  /// shared() (map/shared_map.hpp). -1 sees the whole map (loopd-map, the single-vehicle daemon).
+  int vehicle = -1;
   /// SQLite `synchronous` in WAL mode: "normal" (a committed record survives a crash of loopd; the last commits may be
   /// lost on power loss) or "full" (survives power loss; an fsync per commit).
   std::string synchronous = "normal";
@@ -52,6 +61,15 @@ struct MapStoreConfig {
   std::int64_t max_pages = 0;
   std::optional<std::string> validate() const;
 };
+
+/// @brief Sessions a fleet vehicle may open: vehicle V numbers its sessions V * kSessionsPerVehicle + k (SessionId is
+/// 32-bit: vehicles 0 .. kMaxVehicle).
+inline constexpr SessionId kSessionsPerVehicle = 1000000;
+inline constexpr int kMaxVehicle = 2146;
+/// @brief The vehicle whose sessions `session` belongs to.
+inline int vehicle_of(SessionId session) { return static_cast<int>(session / kSessionsPerVehicle); }
+
+class SharedMap;
 
 /// @brief Persistent keyframes, loop decisions and correction state of one map (all its sessions).
 /// Not thread-safe: one thread (the engine's sequential stage, or a writer it owns) uses it at a time.
@@ -104,6 +122,10 @@ class MapStore {
   /// @brief The back end's own integrity check plus the map's invariants (every loop names stored keyframes, keys
   /// consecutive within a session, correction keys stored); kCorrupt with the first problems found.
   virtual StoreStatus check() = 0;
+
+  /// @brief The map's fleet side (what other vehicles wrote, the joint correction), or null when the back end is not
+  /// shared (SQLite: one writer).
+  virtual SharedMap* shared() { return nullptr; }
 };
 
 /// @brief A store opened by open_map_store, or why it could not be opened.
@@ -115,7 +137,7 @@ struct OpenedMapStore {
 /// @brief Opens (or creates) the map `config.uri` names. A map of an unknown schema version is refused (kCorrupt).
 OpenedMapStore open_map_store(const MapStoreConfig& config);
 
-/// @brief "kOk", "kNotFound", "kBusy", "kCorrupt", "kIo", "kInvalid" (messages, tests).
+/// @brief "kOk", "kNotFound", "kBusy", "kCorrupt", "kIo", "kInvalid", "kUnavailable" (messages, tests).
 const char* to_string(StoreStatus::Code code);
 
 }  // namespace loopd

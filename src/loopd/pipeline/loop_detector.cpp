@@ -163,18 +163,22 @@ const KeyframeRecord& LoopDetector::place_keyframe(const KeyframeInput& input, s
   if (cache_ && record.features && (!record.features->prepared_in_store || indexed)) {
     // The map store holds the prepared scan: memory keeps the M2DP descriptor, the cache the newest full features.
     if (!record.features->prepared_in_store) cache_->put(record.key, record.features);
-    auto thin = std::make_shared<KeyframeFeatures>();
-    thin->ok = record.features->ok;
-    thin->error = record.features->error;
-    thin->descriptor = record.features->descriptor;
-    thin->ms_descriptor = record.features->ms_descriptor;
-    thin->ms_prepare = record.features->ms_prepare;
-    thin->input_points = record.features->input_points;
-    thin->invalid_points = record.features->invalid_points;
-    thin->prepared_in_store = true;
-    record.features = std::move(thin);
+    record.features = thinned(*record.features);
   }
   return keyframes_.add(std::move(record));
+}
+
+std::shared_ptr<const KeyframeFeatures> LoopDetector::thinned(const KeyframeFeatures& features) {
+  auto thin = std::make_shared<KeyframeFeatures>();
+  thin->ok = features.ok;
+  thin->error = features.error;
+  thin->descriptor = features.descriptor;
+  thin->ms_descriptor = features.ms_descriptor;
+  thin->ms_prepare = features.ms_prepare;
+  thin->input_points = features.input_points;
+  thin->invalid_points = features.invalid_points;
+  thin->prepared_in_store = true;
+  return thin;
 }
 
 void LoopDetector::add_ground_plane(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_query) {
@@ -352,11 +356,12 @@ std::function<bool(const KeyframeKey&)> LoopDetector::prior_free_filter(const Ke
   for (const SessionId session : sessions_.sessions())
     if (session != query.key.session)
       other_sessions[session] = sessions_.tied(query.key.session, session) ? beyond_gate : !sessions_.cannot_tie(query.key.session, session);
-  return [query_session = query.key.session, newest_allowed, beyond_gate, other_sessions = std::move(other_sessions),
-          verified = gated.verified](const KeyframeKey& k) {
+  // Other vehicles' sessions (remote_): any keyframe.
+  return [query_session = query.key.session, newest_allowed, beyond_gate, other_sessions = std::move(other_sessions), verified = gated.verified,
+          remote = &remote_](const KeyframeKey& k) {
     if (k.session == query_session) {
       if (!beyond_gate || k.index > newest_allowed) return false;
-    } else {
+    } else if (!remote->holds_session(k.session)) {
       const auto it = other_sessions.find(k.session);
       if (it == other_sessions.end() || !it->second) return false;
     }
@@ -373,6 +378,13 @@ void LoopDetector::close_prior_free(const KeyframeRecord& query, const Eigen::Is
   const double max_correction = std::max(gated.radius, config_.retrieval.max_drift_fraction * (travelled_ - travelled_at_last_loop_));
   std::size_t verified = 0;
   for (std::size_t i = 0; i < places.size() && verified < static_cast<std::size_t>(config_.retrieval.max_verified); ++i) {
+    if (remote_.holds_session(places[i].key.session)) {
+      if (!remote_.find(places[i].key)) continue;
+      ++verified;
+      const RemoteOutcome remote = close_remote(query, *query_features, T_map_query, places[i], gated.radius, out, on_decided);
+      if (remote != RemoteOutcome::kRejected) return;
+      continue;
+    }
     const KeyframeRecord* match = keyframes_.find(places[i].key);
     if (!match || !match->features) continue;
     RankedCandidate candidate{match, (corrected(match->key).translation() - T_map_query.translation()).norm(),
@@ -433,6 +445,10 @@ bool LoopDetector::confirm_prior_free(const KeyframeRecord& query, const Keyfram
   loop.correction = corrected(match.key) * verification.T_match_query * T_map_query.inverse();
   loop.p_map_query = T_map_query.translation();
   loop.event_id = decision.event_id;
+  return confirm_prior_free_loop(loop, decision);
+}
+
+bool LoopDetector::confirm_prior_free_loop(const PriorFreeLoop& loop, LoopDecision& decision) {
   const std::optional<PriorFreeLoop> agreed = confirmation_.confirm(loop);
   if (agreed) {
     const auto [translation, rotation] = PriorFreeConfirmation::disagreement(*agreed, loop);

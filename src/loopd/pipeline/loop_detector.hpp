@@ -23,6 +23,7 @@
 #include "loopd/pipeline/keyframe_selector.hpp"
 #include "loopd/pipeline/loop_decision.hpp"
 #include "loopd/pipeline/prepare_scan.hpp"
+#include "loopd/pipeline/remote_keyframes.hpp"
 #include "loopd/pipeline/session_frames.hpp"
 #include "loopd/retrieval/place_index.hpp"
 #include "loopd/verify/verify.hpp"
@@ -139,6 +140,14 @@ class LoopDetector {
   /// @brief The corrector's resumable state (what the engine stores with each correction).
   CorrectorResumeState corrector_state() const { return corrector_.resume_state(); }
 
+  /// @brief A keyframe of another vehicle's session (a fleet sharing one map), as that vehicle stored it: a candidate
+  /// for this vehicle's prior-free loops, never in this pose sequence (pose in its own session's odometry frame). A
+  /// loop to it links nothing here (the fleet's joint correction takes it); it is accepted once two loops of this
+  /// session agree on where that session lies (as prior-free loops are confirmed), or one agrees with an earlier
+  /// accepted loop's placement. Returns false when the key is already held.
+  bool add_remote_keyframe(KeyframeRecord record);
+  std::size_t remote_keyframes() const { return remote_.size(); }
+
   /// @brief Reads a keyframe's prepared scan back from where it is kept (a map store); nullopt when it cannot.
   using PreparedLoader = std::function<std::optional<PreparedScan>(const KeyframeKey&)>;
   /// @brief Memory bounded by a cache: keyframes keep their descriptor in memory and their prepared scans (most of
@@ -186,6 +195,12 @@ class LoopDetector {
   /// Rejects (accepted = false, reason "prior: ...") an accepted gated verification whose rotation is farther than
   /// max_prior_rotation_deg from the corrected map's relative pose.
   void check_prior_rotation(const KeyframeRecord& match, const Eigen::Isometry3d& T_map_query, VerifyResult* v) const;
+  enum class RemoteOutcome { kRejected, kHeld, kAccepted };
+  RemoteOutcome close_remote(const KeyframeRecord& query, const KeyframeFeatures& query_features, const Eigen::Isometry3d& T_map_query,
+                             const PlaceCandidate& place, double radius, DetectorOutput& out, const DecisionCallback& on_decided);
+  bool confirm_remote(const KeyframeRecord& match, const VerifyResult& verification, const Eigen::Isometry3d& T_map_query, LoopDecision& decision);
+  bool confirm_prior_free_loop(const PriorFreeLoop& loop, LoopDecision& decision);
+  static std::shared_ptr<const KeyframeFeatures> thinned(const KeyframeFeatures& features);
   bool confirm_prior_free(const KeyframeRecord& query, const KeyframeRecord& match, const VerifyResult& verification,
                           const Eigen::Isometry3d& T_map_query, LoopDecision& decision);
   const Eigen::Isometry3d& corrected(const KeyframeKey& key) const { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(key))]; }
@@ -219,7 +234,8 @@ class LoopDetector {
   std::optional<KeyframeKey> last_accepted_;  ///< query of the newest accepted loop
   std::vector<LoopConstraint> restored_loops_;
   SessionFrames sessions_;               ///< sessions in the corrector's one pose sequence, and which loops tied them
-  PlaceIndex places_;                    ///< every keyframe's place descriptor (global retrieval)
+  PlaceIndex places_;                    ///< every keyframe's place descriptor (global retrieval), remote ones too
+  RemoteKeyframes remote_;               ///< other vehicles' keyframes (fleet)
   PriorFreeConfirmation confirmation_;   ///< the newest verified prior-free loop, until the next keyframes agree
   std::unique_ptr<FeatureCache> cache_;  ///< null: every keyframe keeps its full features in memory
   PreparedLoader load_prepared_;         ///< accepted loops restored, handed to the corrector by resume_correction()

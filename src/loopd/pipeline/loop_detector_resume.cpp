@@ -24,6 +24,7 @@ LoopConstraint LoopDetector::count_restored(const LoopDecision& decision, const 
     return loop;
   }
   ++loops_accepted_;
+  if (!pose_index_.count(decision.match)) return loop;  // to another vehicle's keyframe: the fleet's joint correction takes it
   last_accepted_ = decision.query;
   if (!sessions_.cannot_tie(decision.query.session, decision.match.session)) sessions_.tie(decision.query.session, decision.match.session);
   travelled_at_last_loop_ = travelled_;
@@ -37,7 +38,7 @@ LoopConstraint LoopDetector::count_restored(const LoopDecision& decision, const 
 
 void LoopDetector::restore_decision(const LoopDecision& decision, const Information6d& information) {
   const LoopConstraint loop = count_restored(decision, information);
-  if (decision.status == LoopStatus::kAccepted && !corrector_.check_loop(loop)) restored_loops_.push_back(loop);
+  if (decision.status == LoopStatus::kAccepted && pose_index_.count(decision.match) && !corrector_.check_loop(loop)) restored_loops_.push_back(loop);
 }
 
 std::optional<std::string> LoopDetector::resume_correction(std::int64_t revision, const std::vector<KeyframeKey>& keys,
@@ -60,7 +61,7 @@ std::optional<std::string> LoopDetector::resume_correction(std::int64_t revision
 
 std::optional<CorrectionOutput> LoopDetector::reapply_loop(const LoopDecision& decision, const Information6d& information) {
   const LoopConstraint loop = count_restored(decision, information);
-  if (decision.status != LoopStatus::kAccepted || corrector_.check_loop(loop)) return std::nullopt;
+  if (decision.status != LoopStatus::kAccepted || !pose_index_.count(decision.match) || corrector_.check_loop(loop)) return std::nullopt;
   Stopwatch sw;
   const CorrectionResult result = corrector_.add_loop(loop);
   if (!result.ok) return std::nullopt;
