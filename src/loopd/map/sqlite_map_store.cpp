@@ -10,6 +10,7 @@
 
 #include "loopd/map/keyframe_codec.hpp"
 #include "loopd/map/map_cloud_codec.hpp"
+#include "loopd/map/record_blobs.hpp"
 
 namespace loopd {
 namespace {
@@ -44,50 +45,14 @@ Code code_of(int rc) {
   }
 }
 
-// ---- blobs of doubles (raw little-endian; the map is read on the machine that wrote it or another x86/ARM LE one) ----
-
-void append_doubles(std::vector<std::uint8_t>& out, const double* v, std::size_t n) {
-  const std::size_t at = out.size();
-  out.resize(at + n * sizeof(double));
-  std::memcpy(out.data() + at, v, n * sizeof(double));
-}
-
-/// @brief An isometry as 12 doubles (the 3x4 matrix, column-major): bit-exact, unlike a quaternion.
-void append_pose(std::vector<std::uint8_t>& out, const Eigen::Isometry3d& T) {
-  const Eigen::Matrix<double, 3, 4> top = T.matrix().topRows<3>();
-  append_doubles(out, top.data(), 12);
-}
-
-std::vector<std::uint8_t> pose_blob(const Eigen::Isometry3d& T) {
-  std::vector<std::uint8_t> out;
-  append_pose(out, T);
-  return out;
-}
-
-Eigen::Isometry3d read_pose(const std::uint8_t* p) {
-  Eigen::Matrix<double, 3, 4> top;
-  std::memcpy(top.data(), p, 12 * sizeof(double));
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.matrix().topRows<3>() = top;
-  return T;
-}
-
-constexpr std::size_t kPoseBytes = 12 * sizeof(double);
-constexpr std::size_t kKeyBytes = 4 + 8;  // session int32, index int64
-
-void append_key(std::vector<std::uint8_t>& out, const KeyframeKey& key) {
-  const std::size_t at = out.size();
-  out.resize(at + kKeyBytes);
-  std::memcpy(out.data() + at, &key.session, 4);
-  std::memcpy(out.data() + at + 4, &key.index, 8);
-}
-
-KeyframeKey read_key(const std::uint8_t* p) {
-  KeyframeKey key;
-  std::memcpy(&key.session, p, 4);
-  std::memcpy(&key.index, p + 4, 8);
-  return key;
-}
+using blobs::append_doubles;
+using blobs::append_key;
+using blobs::append_pose;
+using blobs::kKeyBytes;
+using blobs::kPoseBytes;
+using blobs::pose_blob;
+using blobs::read_key;
+using blobs::read_pose;
 
 /// @brief One prepared statement, kept for the store's life; reset after every use by the Use guard.
 class Statement {
