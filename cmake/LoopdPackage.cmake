@@ -152,7 +152,7 @@ libraries, is in loopd-ros.")
 set(CPACK_DEBIAN_LOOPD-DEV_PACKAGE_NAME loopd-dev)
 set(CPACK_DEBIAN_LOOPD-DEV_PACKAGE_SECTION libdevel)
 set(CPACK_DEBIAN_LOOPD-DEV_PACKAGE_DEPENDS
-    "liblcm-dev, libeigen3-dev, libceres-dev, libpcl-dev, ocl-icd-opencl-dev, libsqlite3-dev, libzstd-dev, pkg-config")
+    "liblcm-dev, libeigen3-dev, libceres-dev, libpcl-dev, ocl-icd-opencl-dev, libsqlite3-dev, libzstd-dev, libpqxx-dev, pkg-config")
 set(CPACK_DEBIAN_LOOPD-DEV_DESCRIPTION "lidar loop-closure library of loopd (development files)
 The static libraries of loopd's pipeline (descriptors, segmentation,
 registration, verification, loop correction, map store), their headers,

@@ -1,0 +1,154 @@
+#include "loopd/map/postgres/postgres_connection.hpp"
+
+#include <pqxx/pqxx>
+
+namespace loopd::postgres {
+
+using Code = StoreStatus::Code;
+
+Code code_of_sqlstate(const std::string& s) {
+  if (s.rfind("08", 0) == 0 || s == "57P01" || s == "57P02" || s == "57P03") return Code::kUnavailable;  // connection, shutdown
+  if (s.rfind("28", 0) == 0 || s == "3D000") return Code::kInvalid;                                      // credentials, no database
+  if (s == "40001" || s == "40P01" || s == "55P03") return Code::kBusy;                                  // serialization, deadlock, lock
+  if (s.rfind("53", 0) == 0 || s.rfind("58", 0) == 0) return Code::kIo;                                  // resources, system
+  if (s == "XX001" || s == "XX002") return Code::kCorrupt;                                               // data or index corrupted
+  return Code::kInvalid;                                                                                 // constraints, syntax
+}
+
+std::string one_line(std::string message) {
+  for (char& c : message)
+    if (c == '\n' || c == '\t') c = ' ';
+  while (!message.empty() && message.back() == ' ') message.pop_back();
+  std::string out;
+  for (char c : message)
+    if (c != ' ' || out.empty() || out.back() != ' ') out += c;
+  return out;
+}
+
+struct Connection::Link {
+  explicit Link(const std::string& uri) : connection(uri) {}
+  pqxx::connection connection;
+};
+
+Connection::Connection(std::string uri, std::string display_uri, bool read_only)
+    : uri_(std::move(uri)), display_(std::move(display_uri)), read_only_(read_only) {}
+
+Connection::~Connection() {
+  tx_.reset();  // aborts an open transaction (its destructor never throws)
+  conn_.reset();
+}
+
+StoreStatus Connection::connect() {
+  next_try_ = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+  try {
+    conn_.reset();
+    conn_ = std::make_unique<Link>(uri_);
+    pqxx::nontransaction session(conn_->connection);
+    session.exec("SET client_min_messages = warning");  // no NOTICE lines on stderr
+    if (read_only_) session.exec("SET default_transaction_read_only = on");
+    ++generation_;
+    return {};
+  } catch (const pqxx::broken_connection& e) {
+    conn_.reset();
+    const std::string why = one_line(e.what());
+    // libpq reports refused credentials and a missing database or role through the same exception as a dead socket.
+    const bool refused = why.find("authentication failed") != std::string::npos || why.find("does not exist") != std::string::npos;
+    return {refused ? Code::kInvalid : Code::kUnavailable, "map " + display_ + ": cannot connect: " + why};
+  } catch (const std::exception& e) {
+    conn_.reset();
+    return {Code::kInvalid, "map " + display_ + ": cannot connect: " + one_line(e.what())};
+  }
+}
+
+bool Connection::usable() {
+  if (conn_ && conn_->connection.is_open()) return true;
+  if (tx_) return false;  // a transaction died with the connection: rollback() first
+  if (std::chrono::steady_clock::now() < next_try_) return false;
+  return connect().ok();
+}
+
+void Connection::drop() {
+  try {
+    conn_.reset();
+  } catch (const std::exception&) {}
+}
+
+StoreStatus Connection::unavailable(const std::string& operation, const std::string& why) const {
+  return {Code::kUnavailable, "map " + display_ + ": " + operation + ": the server is unavailable (" + why + ")"};
+}
+
+StoreStatus Connection::failed(const std::string& operation, const std::exception& e) {
+  const std::string why = one_line(e.what());
+  Code code = Code::kInvalid;
+  if (dynamic_cast<const pqxx::broken_connection*>(&e) || dynamic_cast<const pqxx::in_doubt_error*>(&e)) {
+    code = Code::kUnavailable;
+  } else if (const auto* sql = dynamic_cast<const pqxx::sql_error*>(&e)) {
+    code = code_of_sqlstate(sql->sqlstate());
+  }
+  if (code != Code::kUnavailable) return {code, "map " + display_ + ": " + operation + ": " + why};
+  if (tx_)
+    tx_lost_ = true;  // the transaction is gone with the connection: kUnavailable until rollback()/commit()
+  else
+    drop();
+  return unavailable(operation, why);
+}
+
+StoreStatus Connection::run(const std::string& operation, const std::function<void(pqxx::transaction_base&)>& work) {
+  if (tx_lost_) return unavailable(operation, "the connection was lost inside the transaction");
+  if (!usable()) return unavailable(operation, "not connected");
+  try {
+    if (tx_) {
+      work(*tx_);
+      return {};
+    }
+    pqxx::work t(conn_->connection);
+    work(t);
+    t.commit();
+    return {};
+  } catch (const std::exception& e) {
+    return failed(operation, e);
+  }
+}
+
+StoreStatus Connection::begin() {
+  if (tx_) return {Code::kInvalid, "map " + display_ + ": begin: a transaction is already open"};
+  if (!usable()) return unavailable("begin", "not connected");
+  try {
+    tx_ = std::make_unique<pqxx::work>(conn_->connection);
+    tx_lost_ = false;
+    return {};
+  } catch (const std::exception& e) {
+    return failed("begin", e);
+  }
+}
+
+StoreStatus Connection::commit() {
+  if (!tx_) return {Code::kInvalid, "map " + display_ + ": commit: no open transaction"};
+  if (tx_lost_) {
+    rollback();
+    return unavailable("commit", "the connection was lost inside the transaction");
+  }
+  try {
+    tx_->commit();
+    tx_.reset();
+    return {};
+  } catch (const std::exception& e) {
+    tx_.reset();
+    StoreStatus s = failed("commit", e);
+    return s;
+  }
+}
+
+StoreStatus Connection::rollback() {
+  const bool lost = tx_lost_;
+  tx_lost_ = false;
+  if (!tx_) return {};
+  try {
+    if (!lost) tx_->abort();
+  } catch (const std::exception&) {}
+  tx_.reset();
+  if (lost) drop();
+  return {};
+}
+
+}  // namespace loopd::postgres

@@ -1,0 +1,57 @@
+#pragma once
+/// @file The PostgreSQL map's tables (schema kPostgresMapSchemaVersion). Same ideas as the SQLite map: blobs in the
+/// same encodings (record_blobs.hpp, keyframe_codec, map_cloud_codec); loops keyed by the writing vehicle and its
+/// event id (every loopd numbers its events from 0); one correction row per vehicle (its detector's, for resume);
+/// the fleet's joint corrections as revisions. stored_at: when a row reached the server (latency figures).
+namespace loopd::postgres {
+
+inline constexpr const char* kSchema = R"sql(
+CREATE TABLE loopd_meta (key text PRIMARY KEY, value text NOT NULL);
+CREATE TABLE sessions (
+  id integer PRIMARY KEY, first_utime bigint NOT NULL, sensor text NOT NULL, source text NOT NULL,
+  T_map_session bytea NOT NULL, anchored boolean NOT NULL);
+CREATE TABLE keyframes (
+  session integer NOT NULL REFERENCES sessions(id), idx bigint NOT NULL, utime bigint NOT NULL,
+  T_odom_sensor bytea NOT NULL, T_map_sensor bytea NOT NULL, residual float8 NOT NULL, travelled float8 NOT NULL,
+  decided boolean NOT NULL DEFAULT false, has_features boolean NOT NULL, features_ok boolean NOT NULL,
+  features_error text NOT NULL, input_points bigint NOT NULL, invalid_points bigint NOT NULL,
+  ms_descriptor float8 NOT NULL, ms_prepare float8 NOT NULL, descriptor bytea NOT NULL, place bytea NOT NULL,
+  features bytea NOT NULL, stored_at timestamptz NOT NULL DEFAULT clock_timestamp(),
+  PRIMARY KEY (session, idx));
+CREATE TABLE map_clouds (
+  session integer NOT NULL, idx bigint NOT NULL, points bigint NOT NULL, cloud bytea NOT NULL,
+  PRIMARY KEY (session, idx), FOREIGN KEY (session, idx) REFERENCES keyframes (session, idx) ON DELETE CASCADE);
+CREATE TABLE loops (
+  vehicle integer NOT NULL, event_id bigint NOT NULL, query_session integer NOT NULL, query_idx bigint NOT NULL,
+  match_session integer NOT NULL, match_idx bigint NOT NULL, query_utime bigint NOT NULL, match_utime bigint NOT NULL,
+  status integer NOT NULL, stage text NOT NULL, reason text NOT NULL, gate_distance float8, gate_radius float8,
+  descriptor_distance float8, lcp_fraction float8, icp_residual float8, icp_fitness float8,
+  hungarian_consistency float8, degeneracy float8, T_match_query bytea NOT NULL, information bytea NOT NULL,
+  retrieval text NOT NULL, place_distance float8, confirmed boolean NOT NULL,
+  stored_at timestamptz NOT NULL DEFAULT clock_timestamp(), PRIMARY KEY (vehicle, event_id));
+CREATE INDEX loops_query ON loops (query_session, query_idx);
+CREATE TABLE correction (
+  vehicle integer PRIMARY KEY, revision bigint NOT NULL, loop_event_id bigint NOT NULL, method text NOT NULL,
+  T_map_odom bytea NOT NULL, keys bytea NOT NULL, poses bytea NOT NULL, corrector_state bytea NOT NULL);
+CREATE TABLE fleet_corrections (
+  revision bigint PRIMARY KEY, solver_vehicle integer NOT NULL, loops bigint NOT NULL, solved_utime bigint NOT NULL,
+  keys bytea NOT NULL, poses bytea NOT NULL, utimes bytea NOT NULL, sessions bytea NOT NULL,
+  stored_at timestamptz NOT NULL DEFAULT clock_timestamp());
+)sql";
+
+/// Keyframe columns of the bulk reads (features is read only at KeyframeLoad::kFull).
+inline constexpr const char* kKeyframeColumns =
+    "session, idx, utime, T_odom_sensor, T_map_sensor, residual, travelled, has_features, features_ok, features_error, "
+    "input_points, invalid_points, ms_descriptor, ms_prepare, descriptor, place";
+
+inline constexpr const char* kLoopColumns =
+    "event_id, query_session, query_idx, match_session, match_idx, query_utime, match_utime, status, stage, reason, "
+    "gate_distance, gate_radius, descriptor_distance, lcp_fraction, icp_residual, icp_fitness, hungarian_consistency, "
+    "degeneracy, T_match_query, information, retrieval, place_distance, confirmed";
+
+/// Advisory lock keys: creating the schema, the solver role, numbering joint corrections.
+inline constexpr long long kSchemaLock = 0x6c6f6f7064000001LL;
+inline constexpr long long kSolverLock = 0x6c6f6f7064000002LL;
+inline constexpr long long kRevisionLock = 0x6c6f6f7064000003LL;
+
+}  // namespace loopd::postgres
