@@ -12,6 +12,7 @@ int run_bench_pipeline(int argc, char** argv);
 int run_bench_soak(int argc, char** argv);
 int run_bench_deskew(int argc, char** argv);
 int run_bench_retrieval(int argc, char** argv);
+int run_bench_map_writes(int argc, char** argv);
 
 namespace {
 struct Subcommand {
@@ -29,10 +30,11 @@ constexpr Subcommand kSubcommands[] = {
     {"soak", run_bench_soak, "loopd live for N minutes on a looping drive: RSS, threads, fds, latency"},
     {"deskew", run_bench_deskew, "deskew of the sharpest-turning simulated scan: ms and error per variant"},
     {"retrieval", run_bench_retrieval, "Scan Context PlaceIndex: ms per query among 100k descriptors, index bytes"},
+    {"map-writes", run_bench_map_writes, "map store: keyframe writes per second and commit latency with N writers"},
 };
 void usage() {
   std::cout << "usage: loopd-bench <subcommand> [options] [--json]\n\nsubcommands:\n";
-  for (const auto& s : kSubcommands) std::cout << "  " << s.name << std::string(10 - std::strlen(s.name), ' ') << s.help << "\n";
+  for (const auto& s : kSubcommands) std::cout << "  " << s.name << std::string(12 - std::strlen(s.name), ' ') << s.help << "\n";
   std::cout << "\n'loopd-bench <subcommand> --help' lists its options.\n";
 }
 }  // namespace
