@@ -43,10 +43,14 @@ StoreStatus Connection::connect() {
   try {
     conn_.reset();
     conn_ = std::make_unique<Link>(uri_);
+    // Never reconnect behind our back: a new connection has lost the session's locks and any open transaction.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+    conn_->connection.inhibit_reactivation(true);
+#pragma GCC diagnostic pop
     pqxx::nontransaction session(conn_->connection);
     session.exec("SET client_min_messages = warning");  // no NOTICE lines on stderr
     if (read_only_) session.exec("SET default_transaction_read_only = on");
-    ++generation_;
     return {};
   } catch (const pqxx::broken_connection& e) {
     conn_.reset();

@@ -32,8 +32,6 @@ class Connection {
   StoreStatus begin();
   StoreStatus commit();
   StoreStatus rollback();
-  /// @brief Increases every time the connection is made (a session-level lock taken before is then gone).
-  int generation() const { return generation_; }
   const std::string& display_uri() const { return display_; }
 
  private:
@@ -48,7 +46,6 @@ class Connection {
   std::unique_ptr<Link> conn_;
   std::unique_ptr<pqxx::dbtransaction> tx_;
   bool tx_lost_ = false;  ///< the open transaction died with the connection: its writes fail until rollback/commit
-  int generation_ = 0;
   std::chrono::steady_clock::time_point next_try_{};
 };
 

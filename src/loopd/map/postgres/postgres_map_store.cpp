@@ -96,7 +96,6 @@ class PostgresMapStore final : public MapStore, public SharedMap {
   std::string display_;
   int vehicle_;
   bool read_only_;
-  int solver_generation_ = -1;  ///< the connection generation the solver lock was taken on (-1: not held)
 };
 
 StoreStatus PostgresMapStore::open() {
@@ -525,17 +524,17 @@ StoreStatus PostgresMapStore::for_each_new_remote_keyframe(std::map<SessionId, s
 }
 
 StoreResult<bool> PostgresMapStore::hold_solver_lock() {
+  // The server's own record of this connection's locks, not a flag of ours: a connection made again (or a server
+  // restarted) holds nothing. An advisory bigint key shows in pg_locks as classid (high half) and objid (low half).
   StoreResult<bool> out;
   out.status = connection_.run("take the solver lock", [&](Tx& t) {
-    if (solver_generation_ == connection_.generation()) {
-      t.exec("SELECT 1");  // still connected: the lock is still ours
-      out.value = true;
-      return;
-    }
-    out.value = t.exec_params1("SELECT pg_try_advisory_lock($1)", postgres::kSolverLock)[0].as<bool>();
+    out.value = t.exec_params1(
+                     "SELECT CASE WHEN EXISTS (SELECT 1 FROM pg_locks WHERE locktype = 'advisory' AND pid = pg_backend_pid() AND granted AND "
+                     "classid = ($1::bigint >> 32)::oid AND objid = ($1::bigint & 4294967295)::oid AND objsubid = 1) THEN true "
+                     "ELSE pg_try_advisory_lock($1::bigint) END",
+                     postgres::kSolverLock)[0]
+                    .as<bool>();
   });
-  if (out.ok() && out.value) solver_generation_ = connection_.generation();
-  if (!out.ok()) solver_generation_ = -1;
   return out;
 }
 

@@ -9,8 +9,12 @@ namespace loopd {
 inline constexpr int kPostgresMapSchemaVersion = 1;
 
 /// @brief Connects to the libpq URI `config.uri` and creates loopd's tables when the database has none (several
-/// processes may do so at once). Scoped to `config.vehicle` (map_store.hpp). The connection's password never appears
-/// in a message. A server that cannot be reached: kUnavailable; refused credentials or a missing database: kInvalid.
+/// processes may do so at once; read_only never creates them: kNotFound). Scoped to `config.vehicle` (map_store.hpp).
+/// The connection's password never appears in a message. A server that cannot be reached: kUnavailable; refused
+/// credentials or a missing database: kInvalid.
+/// @note stats().bytes is the whole database's size (pg_database_size), also for a store scoped to one vehicle.
+/// @note Inside begin() .. commit(), a statement that fails (say a repeated key) aborts the whole server-side
+/// transaction, unlike SQLite's: roll back and write again.
 OpenedMapStore open_postgres_map_store(const MapStoreConfig& config);
 
 /// @brief `uri` with its password replaced by "***" (for messages).
