@@ -19,7 +19,7 @@ int main(int argc, char** argv) {
   std::string path;
   CommandOptions options;
   bool quiet = false;
-  app.add_option("FILE", path, "the map file (FILE or sqlite://FILE)")->required();
+  app.add_option("FILE", path, "the map: FILE, sqlite://FILE, or postgresql://... (a fleet map: every vehicle)")->required();
   app.add_flag("--json", options.json, "print one JSON object as the last stdout line");
   app.add_flag("--quiet", quiet, "no progress bar");
   app.require_subcommand(1);

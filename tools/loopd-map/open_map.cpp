@@ -4,11 +4,32 @@
 
 namespace loopd::tools {
 
+namespace {
+
+bool names_postgres(const std::string& uri) { return uri.rfind("postgresql://", 0) == 0 || uri.rfind("postgres://", 0) == 0; }
+
+/// @brief The whole fleet's map on a PostgreSQL server (unscoped: every vehicle), in read-only transactions.
+ReadOnlyMap open_postgres_read_only(const std::string& uri) {
+  ReadOnlyMap out;
+  MapStoreConfig config;
+  config.uri = uri;
+  config.read_only = true;
+  OpenedMapStore opened = open_map_store(config);
+  if (!opened.status.ok())
+    out.error = opened.status.message;  // names the URI with its password masked
+  else
+    out.store = std::move(opened.store);
+  return out;
+}
+
+}  // namespace
+
 ReadOnlyMap open_map_read_only(const std::string& path) {
+  if (names_postgres(path)) return open_postgres_read_only(path);
   ReadOnlyMap out;
   const std::string file = path.rfind("sqlite://", 0) == 0 ? path.substr(9) : path;
   if (file.empty() || file == "sqlite::memory:" || (path.find("://") != std::string::npos && path.rfind("sqlite://", 0) != 0)) {
-    out.error = "map " + path + ": expected a map file (FILE or sqlite://FILE)";
+    out.error = "map " + path + ": expected a map file (FILE or sqlite://FILE) or postgresql://...";
     return out;
   }
   // Checked here, before SQLite: a read-only open never creates the file, but the message should name the cause.

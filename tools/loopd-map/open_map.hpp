@@ -13,8 +13,8 @@ struct ReadOnlyMap {
   std::string error;
 };
 
-/// @brief Opens `path` ("FILE" or "sqlite://FILE") read-only. A missing path, a directory, an empty file, a file that
-/// is not a loopd map and a map of another schema version are errors.
+/// @brief Opens `path` ("FILE", "sqlite://FILE" or a "postgresql://" URI: the whole fleet's map) read-only. A missing path, a directory, an empty
+/// file, a file that is not a loopd map and a map of another schema version are errors.
 ReadOnlyMap open_map_read_only(const std::string& path);
 
 }  // namespace loopd::tools
