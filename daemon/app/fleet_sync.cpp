@@ -102,9 +102,16 @@ void FleetSync::run() {
     }
     round();
   }
+  // The last round must reach the server (it may just be back: the store reconnects once a second).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<std::int64_t>(config_.flush_timeout * 1000.0));
+  while (round_errors_ > 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    round();
+  }
 }
 
 void FleetSync::round() {
+  round_errors_ = 0;
   read_remote();
   solve_if_due();
   publish_newest();
@@ -112,8 +119,14 @@ void FleetSync::round() {
 
 void FleetSync::read_remote() {
   std::vector<KeyframeRecord> fresh;
-  const StoreStatus s =
-      shared_->for_each_new_remote_keyframe(newest_seen_, remote_load_, [&](MapKeyframe&& k) { fresh.push_back(std::move(k.record)); });
+  const StoreStatus s = shared_->for_each_new_remote_keyframe(newest_seen_, remote_load_, [&](MapKeyframe&& k) {
+    if (remote_load_ != KeyframeLoad::kFull && k.record.features) {  // the prepared scan stays in the store (read on demand)
+      auto thin = std::make_shared<KeyframeFeatures>(*k.record.features);
+      thin->prepared_in_store = true;
+      k.record.features = std::move(thin);
+    }
+    fresh.push_back(std::move(k.record));
+  });
   if (!s.ok()) error("reading the other vehicles' keyframes", s);
   if (fresh.empty()) return;
   std::lock_guard<std::mutex> lock(mutex_);
@@ -165,6 +178,7 @@ void FleetSync::publish_newest() {
 }
 
 void FleetSync::error(const std::string& what, const StoreStatus& status) {
+  ++round_errors_;
   std::int64_t n = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);

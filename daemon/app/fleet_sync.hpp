@@ -78,6 +78,7 @@ class FleetSync {
   std::map<SessionId, std::int64_t> newest_seen_;
   std::optional<FleetCounts> solved_counts_;  ///< what the map held at this vehicle's last solve
   std::int64_t published_revision_ = 0;
+  int round_errors_ = 0;  ///< store errors in the current round (the fleet thread's own)
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;

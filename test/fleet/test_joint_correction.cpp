@@ -59,24 +59,29 @@ TEST_CASE("joint correction: two vehicles' sessions are aligned by the loops bet
   const std::vector<JointKeyframe> third = drive(3000000, 0.0, 10, pose(500.0, 0.0, 1.0), rng);
   keyframes.insert(keyframes.end(), second.rbegin(), second.rend());  // any order
   keyframes.insert(keyframes.end(), third.begin(), third.end());
+  // A vehicle that has just started: one keyframe, no loop (two segment starts follow each other in the chain).
+  keyframes.push_back({{1500000, 0}, 0, pose(-300.0, 20.0, 0.3), 0.0});
   // Vehicle 2's keyframe j lies where vehicle 1's keyframe j + 15 does (15 x 6 deg = 90 deg).
   std::vector<JointLoop> loops;
   for (int j = 5; j < 40; j += 7) loops.push_back(loop({2000000, j}, on_circle(M_PI / 2.0, j), {1000000, j + 15}, on_circle(0.0, j + 15)));
+  // ... and one found by vehicle 1 against vehicle 2's keyframe (the query's session chained first).
+  loops.push_back(loop({1000000, 52}, on_circle(0.0, 52), {2000000, 37}, on_circle(M_PI / 2.0, 37)));
   loops.push_back(loop({1000000, 59}, on_circle(0.0, 59), {1000000, 0}, on_circle(0.0, 0)));  // vehicle 1 closes its lap
   loops.push_back(loop({2000000, 3}, on_circle(0.0, 0), {4000000, 0}, on_circle(0.0, 0)));    // names no stored keyframe
 
   JointCorrectionConfig config;
   const JointCorrection solved = solve_joint_correction(keyframes, loops, config);
   REQUIRE(solved.ok);
-  CHECK(solved.loops_used == 6);
+  CHECK(solved.loops_used == 7);
   CHECK(solved.loops_skipped == 1);
-  REQUIRE(solved.keys.size() == 110);
+  REQUIRE(solved.keys.size() == 111);
   CHECK(solved.keys.front() == KeyframeKey{1000000, 0});
-  REQUIRE(solved.sessions.size() == 3);
+  REQUIRE(solved.sessions.size() == 4);
   CHECK(solved.sessions[0].anchored);
-  CHECK(solved.sessions[1].anchored);
-  CHECK_FALSE(solved.sessions[2].anchored);
-  CHECK(solved.sessions[1].num_keyframes == 40);
+  CHECK_FALSE(solved.sessions[1].anchored);  // 1500000
+  CHECK(solved.sessions[2].anchored);
+  CHECK_FALSE(solved.sessions[3].anchored);
+  CHECK(solved.sessions[2].num_keyframes == 40);
 
   // Where the two vehicles drove the same place, the joint map puts them as the truth does (what a shared map is for):
   // every keyframe j of vehicle 2 against keyframe j + 15 of vehicle 1, at the loops and between them.

@@ -69,6 +69,28 @@ std::vector<SessionAlignment> alignments(const std::vector<JointKeyframe>& keyfr
   return out;
 }
 
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+/// @brief The same loop seen from its match: T_query_match, with the information carried over (loopd's order, a
+/// right perturbation: delta' = -Ad(T_match_query) delta, so I' = Ad^-T I Ad^-1).
+LoopConstraint reversed(const LoopConstraint& c) {
+  LoopConstraint r = c;
+  std::swap(r.query_index, r.match_index);
+  r.T_match_query = c.T_match_query.inverse();
+  Eigen::Matrix<double, 6, 6> adjoint = Eigen::Matrix<double, 6, 6>::Zero();
+  const Eigen::Matrix3d R = c.T_match_query.linear();
+  adjoint.topLeftCorner<3, 3>() = R;
+  adjoint.topRightCorner<3, 3>() = skew(c.T_match_query.translation()) * R;
+  adjoint.bottomRightCorner<3, 3>() = R;
+  const Eigen::Matrix<double, 6, 6> inverse = adjoint.inverse();
+  r.information = inverse.transpose() * c.information * inverse;
+  return r;
+}
+
 }  // namespace
 
 JointCorrection solve_joint_correction(std::vector<JointKeyframe> keyframes, const std::vector<JointLoop>& loops,
@@ -114,7 +136,9 @@ JointCorrection solve_joint_correction(std::vector<JointKeyframe> keyframes, con
     c.T_match_query = l.T_match_query;
     c.information = l.information;
     c.robust = l.robust;
-    constraints.push_back(c);
+    // Along the one sequence a loop runs back from its query (the corrector's heuristic walks from match to query):
+    // a vehicle that found a loop to a session chained after its own gives it the other way round.
+    constraints.push_back(c.query_index > c.match_index ? c : reversed(c));
     groups.join(l.query.session, l.match.session);
   }
   // In the order they end along the sequence, as the online corrector met them.
@@ -122,7 +146,9 @@ JointCorrection solve_joint_correction(std::vector<JointKeyframe> keyframes, con
     return std::max(a.query_index, a.match_index) < std::max(b.query_index, b.match_index);
   });
   out.loops_used = static_cast<std::int64_t>(constraints.size());
-  if (!constraints.empty()) corrector.add_loops(constraints);
+  // One at a time, as the detectors closed them (the heuristic's warm start, then the graph when due): the batch
+  // heuristic over hundreds of overlapping loops gave the graph a start it could not solve from (NaN in Ceres).
+  for (const LoopConstraint& c : constraints) corrector.add_loop(c);
 
   for (const JointKeyframe& k : keyframes) {
     out.keys.push_back(k.key);
