@@ -231,6 +231,7 @@ TEST_CASE("postgres map: two vehicles on one map each see their own verbs and th
     REQUIRE_OK(store->put_loop(loop(1, {session_of(vehicle), 3}, {session_of(vehicle), 0}, false)));
     CorrectionRecord c;
     c.revision = vehicle;
+    c.loop_event_id = 1;  // made by the decision of keyframe 3 (undecided for vehicle 1 until drop_undecided)
     REQUIRE_OK(store->put_correction(c));
   }
   CHECK(loops(*one, false).size() == 2);
@@ -262,12 +263,20 @@ TEST_CASE("postgres map: two vehicles on one map each see their own verbs and th
   CHECK(loops(*one, false).size() == 1);
   CHECK(loops(*two, false).size() == 2);
   CHECK(load(*two, std::nullopt, KeyframeLoad::kPose).size() == 4);
+  CHECK_FALSE(one->correction().value.has_value());  // made by a dropped decision
+  CHECK(two->correction().value->revision == 2);
 
   auto whole = open_ok(uri);
   CHECK(loops(*whole, false).size() == 3);
   std::vector<LoopRecord> fleet_loops;
   REQUIRE_OK(whole->shared()->for_each_fleet_loop([&](LoopRecord&& l) { fleet_loops.push_back(std::move(l)); }));
   CHECK(fleet_loops.size() == 2);  // both accepted loops name decided keyframes
+  std::vector<MapKeyframe> fleet_keyframes;
+  REQUIRE_OK(whole->shared()->for_each_fleet_keyframe([&](MapKeyframe&& k) { fleet_keyframes.push_back(std::move(k)); }));
+  REQUIRE(fleet_keyframes.size() == 6);  // vehicle 1: 0, 1; vehicle 2: 0 .. 3
+  CHECK(fleet_keyframes.front().record.key == KeyframeKey{session_of(1), 0});
+  CHECK(fleet_keyframes.back().record.key == KeyframeKey{session_of(2), 3});
+  CHECK(fleet_keyframes.front().record.features == nullptr);
   const auto counts = whole->shared()->fleet_counts();
   REQUIRE(counts.ok());
   CHECK(counts.value.keyframes == 6);
