@@ -324,6 +324,7 @@ TEST_CASE("postgres map: joint corrections are numbered, read back exactly, and 
   c.sessions.push_back({session_of(3), true, pose(1.0, 0.2), 5});
   const auto first = fleet.put_fleet_correction(c);
   const auto second = fleet.put_fleet_correction(c);
+  INFO(first.status.message);
   REQUIRE(first.ok());
   REQUIRE(second.ok());
   CHECK(second.value == first.value + 1);
@@ -346,6 +347,12 @@ TEST_CASE("postgres map: joint corrections are numbered, read back exactly, and 
   REQUIRE(none.ok());
   CHECK_FALSE(none.value.has_value());
   CHECK(fleet.fleet_counts().value.newest_revision == second.value);
+
+  // Only the newest 20 revisions stay; a record whose arrays differ in number is refused.
+  for (int i = 0; i < 20; ++i) REQUIRE(fleet.put_fleet_correction(c).ok());
+  REQUIRE(server()->sql(uri, "DO $$ BEGIN IF (SELECT count(*) FROM fleet_corrections) <> 20 THEN RAISE 'kept revisions'; END IF; END $$"));
+  c.utimes.pop_back();
+  CHECK(fleet.put_fleet_correction(c).status.code == Code::kInvalid);
 }
 
 TEST_CASE("postgres map: writes while the server is down are kUnavailable, then succeed after it restarts", "[postgres]") {

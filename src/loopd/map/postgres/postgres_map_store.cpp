@@ -10,6 +10,7 @@
 
 #include "loopd/map/keyframe_codec.hpp"
 #include "loopd/map/map_cloud_codec.hpp"
+#include "loopd/map/postgres/fleet_correction_blobs.hpp"
 #include "loopd/map/postgres/postgres_connection.hpp"
 #include "loopd/map/postgres/postgres_schema.hpp"
 #include "loopd/map/record_blobs.hpp"
@@ -21,6 +22,8 @@ namespace {
 using Code = StoreStatus::Code;
 using postgres::Connection;
 using Tx = pqxx::transaction_base;
+
+constexpr int kKeptFleetRevisions = 20;  // joint corrections kept (a reader may still fetch one a little behind)
 
 pqxx::binarystring bin(const std::vector<std::uint8_t>& v) { return pqxx::binarystring(v.data(), v.size()); }
 std::vector<std::uint8_t> bytes_of(const pqxx::field& f) {
@@ -571,32 +574,24 @@ StoreResult<FleetCounts> PostgresMapStore::fleet_counts() {
 
 StoreResult<std::int64_t> PostgresMapStore::put_fleet_correction(const FleetCorrectionRecord& c) {
   StoreResult<std::int64_t> out;
-  std::vector<std::uint8_t> keys, poses, utimes, sessions;
-  for (std::size_t i = 0; i < c.keys.size(); ++i) {
-    blobs::append_key(keys, c.keys[i]);
-    blobs::append_pose(poses, c.T_map_sensor[i]);
-    blobs::append_bytes(utimes, &c.utimes[i], 8);
-  }
-  for (const FleetCorrectionRecord::Session& s : c.sessions) {
-    blobs::append_bytes(sessions, &s.id, 4);
-    const std::uint8_t anchored = s.anchored ? 1 : 0;
-    blobs::append_bytes(sessions, &anchored, 1);
-    blobs::append_pose(sessions, s.T_map_session);
-    blobs::append_bytes(sessions, &s.keyframes, 8);
+  const std::optional<postgres::FleetCorrectionBlobs> b = postgres::encode_fleet_correction(c);
+  if (!b) {
+    out.status = {Code::kInvalid, "map " + display_ + ": joint correction keys, poses and scan times differ in number"};
+    return out;
   }
   out.status = connection_.run("store the joint correction", [&](Tx& t) {
     t.exec_params("SELECT pg_advisory_xact_lock($1)", postgres::kRevisionLock);
     out.value = t.exec1("SELECT coalesce(max(revision), 0) + 1 FROM fleet_corrections")[0].as<std::int64_t>();
     t.exec_params("INSERT INTO fleet_corrections VALUES ($1, $2, $3, $4, $5, $6, $7, $8)", out.value, c.solver_vehicle, c.loops, c.solved_utime,
-                  bin(keys), bin(poses), bin(utimes), bin(sessions));
-    t.exec_params("DELETE FROM fleet_corrections WHERE revision <= $1 - 20", out.value);  // the newest 20 revisions stay
+                  bin(b->keys), bin(b->poses), bin(b->utimes), bin(b->sessions));
+    t.exec_params("DELETE FROM fleet_corrections WHERE revision <= $1::bigint - $2::bigint", out.value, kKeptFleetRevisions);
   });
   return out;
 }
 
 StoreResult<std::optional<FleetCorrectionRecord>> PostgresMapStore::fleet_correction(std::int64_t after_revision) {
   StoreResult<std::optional<FleetCorrectionRecord>> out;
-  bool bad = false;
+  std::optional<std::string> bad;
   out.status = connection_.run("read the joint correction", [&](Tx& t) {
     const pqxx::result r = t.exec_params(
         "SELECT revision, solver_vehicle, loops, solved_utime, keys, poses, utimes, sessions FROM fleet_corrections WHERE revision > $1 "
@@ -608,31 +603,11 @@ StoreResult<std::optional<FleetCorrectionRecord>> PostgresMapStore::fleet_correc
     c.solver_vehicle = r[0][1].as<int>();
     c.loops = r[0][2].as<std::int64_t>();
     c.solved_utime = r[0][3].as<std::int64_t>();
-    const std::vector<std::uint8_t> keys = bytes_of(r[0][4]), poses = bytes_of(r[0][5]), utimes = bytes_of(r[0][6]), sessions = bytes_of(r[0][7]);
-    const std::size_t n = keys.size() / blobs::kKeyBytes;
-    constexpr std::size_t kSessionBytes = 4 + 1 + blobs::kPoseBytes + 8;
-    if (keys.size() % blobs::kKeyBytes || poses.size() != n * blobs::kPoseBytes || utimes.size() != n * 8 || sessions.size() % kSessionBytes) {
-      bad = true;
-      return;
-    }
-    for (std::size_t i = 0; i < n; ++i) {
-      c.keys.push_back(blobs::read_key(keys.data() + i * blobs::kKeyBytes));
-      c.T_map_sensor.push_back(blobs::read_pose(poses.data() + i * blobs::kPoseBytes));
-      std::int64_t u = 0;
-      std::memcpy(&u, utimes.data() + i * 8, 8);
-      c.utimes.push_back(u);
-    }
-    for (std::size_t at = 0; at < sessions.size(); at += kSessionBytes) {
-      FleetCorrectionRecord::Session s;
-      std::memcpy(&s.id, sessions.data() + at, 4);
-      s.anchored = sessions[at + 4] != 0;
-      s.T_map_session = blobs::read_pose(sessions.data() + at + 5);
-      std::memcpy(&s.keyframes, sessions.data() + at + 5 + blobs::kPoseBytes, 8);
-      c.sessions.push_back(s);
-    }
+    const postgres::FleetCorrectionBlobs b{bytes_of(r[0][4]), bytes_of(r[0][5]), bytes_of(r[0][6]), bytes_of(r[0][7])};
+    if ((bad = postgres::decode_fleet_correction(b, c))) return;
     out.value = std::move(c);
   });
-  if (bad) out.status = corrupt("a joint correction's blobs have the wrong sizes");
+  if (out.ok() && bad) out.status = corrupt("joint correction: " + *bad);
   return out;
 }
 
