@@ -186,6 +186,15 @@ TEST_CASE("postgres map: an aborted transaction leaves nothing, reopening sees e
     fill(*store);
     REQUIRE_OK(store->commit());
     CHECK(store->commit().code == Code::kInvalid);
+    // A statement that fails inside a transaction aborts it on the server: commit says so instead of kOk.
+    REQUIRE_OK(store->begin());
+    REQUIRE_OK(store->put_session(session(7)));
+    CHECK(store->put_keyframe(keyframe(0, 0, nullptr)).code == Code::kInvalid);  // a repeated key
+    CHECK(store->put_keyframe(keyframe(7, 0, nullptr)).code == Code::kInvalid);  // refused until rollback
+    const StoreStatus refused = store->commit();
+    CHECK(refused.code == Code::kInvalid);
+    CHECK(refused.message.find("rolled back") != std::string::npos);
+    CHECK(store->stats().value.sessions == 2);
   }
   OpenedMapStore reader = open_store(uri, -1, true);
   REQUIRE(reader.status.ok());
@@ -355,7 +364,9 @@ TEST_CASE("postgres map: joint corrections are numbered, read back exactly, and 
   CHECK(fleet.put_fleet_correction(c).status.code == Code::kInvalid);
 }
 
-TEST_CASE("postgres map: writes while the server is down are kUnavailable, then succeed after it restarts", "[postgres]") {
+TEST_CASE("postgres map: writes while the server is down (stopped or crashed) are kUnavailable, then succeed after it restarts", "[postgres]") {
+  const std::string mode = GENERATE("fast", "immediate");  // immediate: as a crash, what was committed must survive
+  INFO("stop --mode " << mode);
   const std::string uri = fresh_database();
   if (uri.empty()) return;
   auto store = open_ok(uri, 1);
@@ -365,8 +376,9 @@ TEST_CASE("postgres map: writes while the server is down are kUnavailable, then 
   REQUIRE_OK(store->begin());
   REQUIRE_OK(store->put_keyframe(keyframe(session_of(1), 1, nullptr)));
 
-  REQUIRE(server()->stop("fast"));
+  REQUIRE(server()->stop(mode));
   const StoreStatus in_transaction = store->put_keyframe(keyframe(session_of(1), 2, nullptr));
+  INFO(in_transaction.message);
   CHECK(in_transaction.code == Code::kUnavailable);
   CHECK(store->commit().code == Code::kUnavailable);
   for (int i = 0; i < 3; ++i) {

@@ -89,7 +89,16 @@ StoreStatus Connection::failed(const std::string& operation, const std::exceptio
   } else if (const auto* sql = dynamic_cast<const pqxx::sql_error*>(&e)) {
     code = code_of_sqlstate(sql->sqlstate());
   }
-  if (code != Code::kUnavailable) return {code, "map " + display_ + ": " + operation + ": " + why};
+  // A server that dies mid-statement surfaces as an sql_error without SQLSTATE ("server closed the connection
+  // unexpectedly"); libpq's own state says the connection is gone.
+  if (conn_ && !conn_->connection.is_open()) code = Code::kUnavailable;
+  for (const char* gone : {"server closed the connection", "no connection to the server", "terminating connection"})
+    if (why.find(gone) != std::string::npos) code = Code::kUnavailable;
+  if (code != Code::kUnavailable) {
+    // The server has aborted the open transaction: COMMIT would roll it back and report success.
+    if (tx_ && tx_failed_.empty()) tx_failed_ = operation + ": " + why;
+    return {code, "map " + display_ + ": " + operation + ": " + why};
+  }
   if (tx_)
     tx_lost_ = true;  // the transaction is gone with the connection: kUnavailable until rollback()/commit()
   else
@@ -99,6 +108,8 @@ StoreStatus Connection::failed(const std::string& operation, const std::exceptio
 
 StoreStatus Connection::run(const std::string& operation, const std::function<void(pqxx::transaction_base&)>& work) {
   if (tx_lost_) return unavailable(operation, "the connection was lost inside the transaction");
+  if (!tx_failed_.empty())
+    return {Code::kInvalid, "map " + display_ + ": " + operation + ": the transaction failed earlier (" + tx_failed_ + "): roll back"};
   if (!usable()) return unavailable(operation, "not connected");
   try {
     if (tx_) {
@@ -120,6 +131,7 @@ StoreStatus Connection::begin() {
   try {
     tx_ = std::make_unique<pqxx::work>(conn_->connection);
     tx_lost_ = false;
+    tx_failed_.clear();
     return {};
   } catch (const std::exception& e) {
     return failed("begin", e);
@@ -131,6 +143,11 @@ StoreStatus Connection::commit() {
   if (tx_lost_) {
     rollback();
     return unavailable("commit", "the connection was lost inside the transaction");
+  }
+  if (!tx_failed_.empty()) {
+    const std::string why = tx_failed_;
+    rollback();
+    return {Code::kInvalid, "map " + display_ + ": commit: rolled back, a statement of the transaction failed (" + why + ")"};
   }
   try {
     tx_->commit();
@@ -146,6 +163,7 @@ StoreStatus Connection::commit() {
 StoreStatus Connection::rollback() {
   const bool lost = tx_lost_;
   tx_lost_ = false;
+  tx_failed_.clear();
   if (!tx_) return {};
   try {
     if (!lost) tx_->abort();

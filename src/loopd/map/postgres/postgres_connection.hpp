@@ -45,7 +45,8 @@ class Connection {
   struct Link;  ///< the pqxx::connection (its base class has no virtual destructor: held by value in here)
   std::unique_ptr<Link> conn_;
   std::unique_ptr<pqxx::dbtransaction> tx_;
-  bool tx_lost_ = false;  ///< the open transaction died with the connection: its writes fail until rollback/commit
+  bool tx_lost_ = false;   ///< the open transaction died with the connection: its writes fail until rollback/commit
+  std::string tx_failed_;  ///< why a statement of the open transaction failed (the server aborted it): commit refuses
   std::chrono::steady_clock::time_point next_try_{};
 };
 
