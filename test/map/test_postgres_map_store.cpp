@@ -172,6 +172,24 @@ TEST_CASE("postgres map: keyframes, map clouds, loops and the correction round-t
   REQUIRE_OK(store->check());
 }
 
+TEST_CASE("postgres map: keyframes are read in batches, in key order, each once", "[postgres]") {
+  const std::string uri = fresh_database();
+  if (uri.empty()) return;
+  auto store = open_ok(uri, 4);
+  REQUIRE_OK(store->begin());
+  for (int k : {0, 1}) {
+    REQUIRE_OK(store->put_session(session(session_of(4, k))));
+    for (std::int64_t i = 0; i < 150; ++i) REQUIRE_OK(store->put_keyframe(keyframe(session_of(4, k), i, nullptr)));
+  }
+  REQUIRE_OK(store->commit());
+  for (KeyframeLoad depth : {KeyframeLoad::kPose, KeyframeLoad::kFull}) {  // kFull reads 128 a batch
+    const std::vector<MapKeyframe> all = load(*store, std::nullopt, depth);
+    REQUIRE(all.size() == 300);
+    for (std::size_t n = 0; n < all.size(); ++n)
+      REQUIRE(all[n].record.key == KeyframeKey{session_of(4, static_cast<int>(n / 150)), static_cast<std::int64_t>(n % 150)});
+  }
+}
+
 TEST_CASE("postgres map: an aborted transaction leaves nothing, reopening sees everything, another schema is refused", "[postgres]") {
   const std::string uri = fresh_database();
   if (uri.empty()) return;

@@ -3,6 +3,7 @@
 #include <pqxx/pqxx>
 
 #include <climits>
+#include <limits>
 #include <cstring>
 #include <cmath>
 #include <cstring>
@@ -23,7 +24,10 @@ using Code = StoreStatus::Code;
 using postgres::Connection;
 using Tx = pqxx::transaction_base;
 
-constexpr int kKeptFleetRevisions = 20;  // joint corrections kept (a reader may still fetch one a little behind)
+constexpr int kKeptFleetRevisions = 20;
+// Keyframes per read: ~100 KB each with the prepared scan (a batch of ~13 MB), ~2 KB each without.
+constexpr std::size_t kFullKeyframeBatch = 128;
+constexpr std::size_t kKeyframeBatch = 4096;  // joint corrections kept (a reader may still fetch one a little behind)
 
 pqxx::binarystring bin(const std::vector<std::uint8_t>& v) { return pqxx::binarystring(v.data(), v.size()); }
 std::vector<std::uint8_t> bytes_of(const pqxx::field& f) {
@@ -89,7 +93,7 @@ class PostgresMapStore final : public MapStore, public SharedMap {
   StoreStatus create_or_check_schema();
   StoreStatus read_keyframe(const pqxx::row& row, KeyframeLoad load, MapKeyframe& out) const;
   StoreStatus read_loop(const pqxx::row& row, LoopRecord& out) const;
-  StoreStatus keyframes_where(const std::string& operation, KeyframeLoad load, const std::function<pqxx::result(Tx&, const std::string&)>& query,
+  StoreStatus keyframes_where(const std::string& operation, KeyframeLoad load, const std::string& where,
                               const std::function<void(MapKeyframe&&)>& visit);
   StoreStatus loops_where(const std::string& operation, const std::function<pqxx::result(Tx&)>& query,
                           const std::function<void(LoopRecord&&)>& visit);
@@ -224,35 +228,39 @@ StoreStatus PostgresMapStore::read_keyframe(const pqxx::row& row, KeyframeLoad l
 }
 
 /// @brief Reads keyframe rows a query returns, as deep as `load`, and visits them in order.
-StoreStatus PostgresMapStore::keyframes_where(const std::string& operation, KeyframeLoad load,
-                                              const std::function<pqxx::result(Tx&, const std::string&)>& query,
+/// @brief Visits the keyframes `where` (SQL over keyframes' columns, numbers only) selects, in key order, as deep as
+/// `load`: read in batches (a map's features do not fit in one result), each batch visited after its transaction so a
+/// visitor may write.
+StoreStatus PostgresMapStore::keyframes_where(const std::string& operation, KeyframeLoad load, const std::string& where,
                                               const std::function<void(MapKeyframe&&)>& visit) {
   const std::string columns = std::string(postgres::kKeyframeColumns) + (load == KeyframeLoad::kFull ? ", features" : "");
-  std::vector<MapKeyframe> read;
-  StoreStatus decoded;
-  StoreStatus s = connection_.run(operation, [&](Tx& t) {
-    for (const pqxx::row& row : query(t, columns)) {
-      MapKeyframe k;
-      if (decoded = read_keyframe(row, load, k); !decoded.ok()) return;
-      read.push_back(std::move(k));
-    }
-  });
-  if (!s.ok()) return s;
-  if (!decoded.ok()) return decoded;
-  for (MapKeyframe& k : read) visit(std::move(k));
-  return {};
+  const std::size_t batch = load == KeyframeLoad::kFull ? kFullKeyframeBatch : kKeyframeBatch;
+  const std::string sql = "SELECT " + columns + " FROM keyframes WHERE (" + where +
+                          ") AND (session, idx) > ($1::integer, $2::bigint) ORDER BY session, idx LIMIT " + std::to_string(batch);
+  KeyframeKey after{std::numeric_limits<SessionId>::min(), std::numeric_limits<std::int64_t>::min()};
+  for (;;) {
+    std::vector<MapKeyframe> read;
+    StoreStatus decoded;
+    StoreStatus s = connection_.run(operation, [&](Tx& t) {
+      for (const pqxx::row& row : t.exec_params(sql, after.session, after.index)) {
+        MapKeyframe k;
+        if (decoded = read_keyframe(row, load, k); !decoded.ok()) return;
+        read.push_back(std::move(k));
+      }
+    });
+    if (!s.ok()) return s;
+    if (!decoded.ok()) return decoded;
+    if (!read.empty()) after = read.back().record.key;
+    for (MapKeyframe& k : read) visit(std::move(k));
+    if (read.size() < batch) return {};
+  }
 }
 
 StoreStatus PostgresMapStore::for_each_keyframe(std::optional<SessionId> session, KeyframeLoad load,
                                                 const std::function<void(MapKeyframe&&)>& visit) {
   auto [lo, hi] = session_range(vehicle_);
   if (session) lo = hi = *session;
-  return keyframes_where(
-      "read keyframes", load,
-      [lo = lo, hi = hi](Tx& t, const std::string& columns) {
-        return t.exec_params("SELECT " + columns + " FROM keyframes WHERE session BETWEEN $1 AND $2 ORDER BY session, idx", lo, hi);
-      },
-      visit);
+  return keyframes_where("read keyframes", load, "session BETWEEN " + std::to_string(lo) + " AND " + std::to_string(hi), visit);
 }
 
 StoreResult<PreparedScan> PostgresMapStore::get_prepared(const KeyframeKey& key) {
@@ -500,27 +508,26 @@ StoreStatus PostgresMapStore::check() {
 StoreStatus PostgresMapStore::for_each_new_remote_keyframe(std::map<SessionId, std::int64_t>& newest_seen, KeyframeLoad load,
                                                            const std::function<void(MapKeyframe&&)>& visit) {
   const auto [lo, hi] = session_range(vehicle_);
+  // Per session (few) its newest decided index: an index scan backwards from the session's newest keyframe, not a
+  // scan of every keyframe of the fleet.
   std::map<SessionId, std::int64_t> newest_decided;
   StoreStatus s = connection_.run("read the other vehicles' sessions", [&, lo = lo, hi = hi](Tx& t) {
-    for (const pqxx::row& r :
-         t.exec_params("SELECT session, max(idx) FROM keyframes WHERE decided AND session NOT BETWEEN $1 AND $2 GROUP BY session", lo, hi))
-      newest_decided[r[0].as<SessionId>()] = r[1].as<std::int64_t>();
+    for (const pqxx::row& r : t.exec_params("SELECT s.id, (SELECT max(k.idx) FROM keyframes k WHERE k.session = s.id AND k.decided) FROM sessions s "
+                                            "WHERE s.id NOT BETWEEN $1 AND $2",
+                                            lo, hi))
+      if (!r[1].is_null()) newest_decided[r[0].as<SessionId>()] = r[1].as<std::int64_t>();
   });
   if (!s.ok()) return s;
   for (const auto& [session, newest] : newest_decided) {
     const auto seen = newest_seen.find(session);
     const std::int64_t after = seen == newest_seen.end() ? -1 : seen->second;
     if (newest <= after) continue;
-    s = keyframes_where(
-        "read session " + std::to_string(session), load,
-        [session = session, after, newest = newest](Tx& t, const std::string& c) {
-          return t.exec_params("SELECT " + c + " FROM keyframes WHERE session = $1 AND idx > $2 AND idx <= $3 AND decided ORDER BY idx", session,
-                               after, newest);
-        },
-        [&](MapKeyframe&& k) {
-          newest_seen[session] = k.record.key.index;
-          visit(std::move(k));
-        });
+    const std::string where =
+        "decided AND session = " + std::to_string(session) + " AND idx > " + std::to_string(after) + " AND idx <= " + std::to_string(newest);
+    s = keyframes_where("read session " + std::to_string(session), load, where, [&, session = session](MapKeyframe&& k) {
+      newest_seen[session] = k.record.key.index;
+      visit(std::move(k));
+    });
     if (!s.ok()) return s;
   }
   return {};
@@ -542,9 +549,7 @@ StoreResult<bool> PostgresMapStore::hold_solver_lock() {
 }
 
 StoreStatus PostgresMapStore::for_each_fleet_keyframe(const std::function<void(MapKeyframe&&)>& visit) {
-  return keyframes_where(
-      "read the fleet's keyframes", KeyframeLoad::kPose,
-      [](Tx& t, const std::string& c) { return t.exec("SELECT " + c + " FROM keyframes WHERE decided ORDER BY session, idx"); }, visit);
+  return keyframes_where("read the fleet's keyframes", KeyframeLoad::kPose, "decided", visit);
 }
 
 StoreStatus PostgresMapStore::for_each_fleet_loop(const std::function<void(LoopRecord&&)>& visit) {
