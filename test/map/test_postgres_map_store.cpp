@@ -9,6 +9,8 @@
 
 #include "loopd/map/map_cloud_codec.hpp"
 #include "loopd/map/map_store.hpp"
+#include "loopd/map/postgres/postgres_connection.hpp"
+#include "loopd/map/postgres/postgres_map_store.hpp"
 #include "loopd/map/shared_map.hpp"
 #include "map_store_records.hpp"
 #include "map_test_scene.hpp"
@@ -232,6 +234,29 @@ TEST_CASE("postgres map: an aborted transaction leaves nothing, reopening sees e
   CHECK(refused.status.message.find("reads 1") != std::string::npos);
 }
 
+TEST_CASE("postgres map: a write waiting for another transaction's lock gives kBusy after busy_timeout_ms", "[postgres]") {
+  const std::string uri = fresh_database();
+  if (uri.empty()) return;
+  auto holder = open_ok(uri, 1);
+  MapStoreConfig config;
+  config.uri = uri;
+  config.vehicle = 1;
+  config.busy_timeout_ms = 200;
+  OpenedMapStore waiter = open_map_store(config);
+  REQUIRE(waiter.status.ok());
+  REQUIRE_OK(holder->begin());
+  REQUIRE_OK(holder->put_session(session(session_of(1))));
+  const auto t0 = std::chrono::steady_clock::now();
+  const StoreStatus busy = waiter.store->put_session(session(session_of(1)));  // the same row: waits for holder
+  const double waited_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  INFO(busy.message);
+  CHECK(busy.code == Code::kBusy);
+  CHECK(waited_ms >= 150);
+  CHECK(waited_ms < 3000);
+  REQUIRE_OK(holder->commit());
+  REQUIRE_OK(waiter.store->put_session(session(session_of(1))));
+}
+
 TEST_CASE("postgres map: several processes creating the schema of a new database at once all succeed", "[postgres]") {
   const std::string uri = fresh_database();
   if (uri.empty()) return;
@@ -441,4 +466,18 @@ TEST_CASE("postgres map: a wrong password or a socket with no server fails at op
   const OpenedMapStore no_database = open_store(server()->uri_with_password(kPassword, "no_such_map"));
   CHECK(no_database.status.code == Code::kInvalid);
   CHECK(no_database.status.message.find("does not exist") != std::string::npos);
+}
+
+TEST_CASE("postgres map: connection defaults are added where the URI sets none; the password is masked in messages", "[postgres]") {
+  const std::string set = postgres::with_connection_defaults("postgresql://u:pw@/db?host=/x&connect_timeout=2");
+  CHECK(set.find("connect_timeout=2") != std::string::npos);
+  CHECK(set.find("connect_timeout=5") == std::string::npos);
+  CHECK(set.find("&keepalives_idle=10") != std::string::npos);
+  const std::string bare = postgres::with_connection_defaults("postgresql://db.example/fleet");
+  CHECK(bare.rfind("postgresql://db.example/fleet?connect_timeout=5&keepalives_idle=10", 0) == 0);
+  CHECK(mask_password("postgresql://loopd:secret@/loopd?host=/tmp/x") == "postgresql://loopd:***@/loopd?host=/tmp/x");
+  CHECK(mask_password("postgresql://loopd@/loopd?host=/tmp/x") == "postgresql://loopd@/loopd?host=/tmp/x");
+  CHECK(mask_password("postgres://host:5432/db") == "postgres://host:5432/db");
+  CHECK(mask_password("postgresql://u:pw@db:5432/fleet") == "postgresql://u:***@db:5432/fleet");
+  CHECK(mask_password("postgresql:///fleet?host=/x&password=secret&sslmode=disable") == "postgresql:///fleet?host=/x&password=***&sslmode=disable");
 }

@@ -2,6 +2,8 @@
 
 #include <pqxx/pqxx>
 
+#include <algorithm>
+
 namespace loopd::postgres {
 
 using Code = StoreStatus::Code;
@@ -30,8 +32,21 @@ struct Connection::Link {
   pqxx::connection connection;
 };
 
-Connection::Connection(std::string uri, std::string display_uri, bool read_only)
-    : uri_(std::move(uri)), display_(std::move(display_uri)), read_only_(read_only) {}
+std::string with_connection_defaults(const std::string& uri) {
+  static const char* const kDefaults[][2] = {
+      {"connect_timeout", "5"}, {"keepalives_idle", "10"}, {"keepalives_interval", "5"}, {"keepalives_count", "3"}, {"tcp_user_timeout", "15000"}};
+  std::string out = uri;
+  for (const auto& [name, value] : kDefaults) {
+    const std::string key = std::string(name) + "=";
+    const auto query = out.find('?');
+    const bool present = query != std::string::npos && (out.find("?" + key) != std::string::npos || out.find("&" + key) != std::string::npos);
+    if (!present) out += (query == std::string::npos ? "?" : "&") + key + value;
+  }
+  return out;
+}
+
+Connection::Connection(std::string uri, std::string display_uri, bool read_only, int lock_timeout_ms)
+    : uri_(with_connection_defaults(uri)), display_(std::move(display_uri)), read_only_(read_only), lock_timeout_ms_(lock_timeout_ms) {}
 
 Connection::~Connection() {
   tx_.reset();  // aborts an open transaction (its destructor never throws)
@@ -51,6 +66,8 @@ StoreStatus Connection::connect() {
     pqxx::nontransaction session(conn_->connection);
     session.exec("SET client_min_messages = warning");  // no NOTICE lines on stderr
     if (read_only_) session.exec("SET default_transaction_read_only = on");
+    // MapStoreConfig::busy_timeout_ms (PostgreSQL reads 0 as no limit; SQLite as none at all)
+    session.exec("SET lock_timeout = " + std::to_string(std::max(1, lock_timeout_ms_)));
     return {};
   } catch (const pqxx::broken_connection& e) {
     conn_.reset();

@@ -19,8 +19,8 @@ namespace loopd::postgres {
 class Connection {
  public:
   /// @param uri the libpq URI (with the password); display_uri the same with the password masked (messages);
-  /// read_only every transaction read-only.
-  Connection(std::string uri, std::string display_uri, bool read_only);
+  /// read_only every transaction read-only; lock_timeout_ms how long a statement waits for another's lock (kBusy).
+  Connection(std::string uri, std::string display_uri, bool read_only, int lock_timeout_ms);
   ~Connection();
   Connection(const Connection&) = delete;
   Connection& operator=(const Connection&) = delete;
@@ -42,6 +42,7 @@ class Connection {
 
   std::string uri_, display_;
   bool read_only_;
+  int lock_timeout_ms_;
   struct Link;  ///< the pqxx::connection (its base class has no virtual destructor: held by value in here)
   std::unique_ptr<Link> conn_;
   std::unique_ptr<pqxx::dbtransaction> tx_;
@@ -52,6 +53,10 @@ class Connection {
 
 /// @brief The StoreStatus code for a server error class (SQLSTATE).
 StoreStatus::Code code_of_sqlstate(const std::string& sqlstate);
+
+/// @brief `uri` with loopd's connection defaults where it sets none: connect_timeout (an unreachable TCP server is
+/// kUnavailable in seconds, not minutes) and TCP keepalives / tcp_user_timeout (a silently dropped link too).
+std::string with_connection_defaults(const std::string& uri);
 
 /// @brief A libpqxx message on one line (no trailing newline; libpq's "FATAL:  " prefix kept).
 std::string one_line(std::string message);

@@ -52,7 +52,7 @@ std::pair<long long, long long> session_range(int vehicle) {
 class PostgresMapStore final : public MapStore, public SharedMap {
  public:
   PostgresMapStore(const MapStoreConfig& config)
-      : connection_(config.uri, mask_password(config.uri), config.read_only),
+      : connection_(config.uri, mask_password(config.uri), config.read_only, config.busy_timeout_ms),
         display_(mask_password(config.uri)),
         vehicle_(config.vehicle),
         read_only_(config.read_only) {}
@@ -619,14 +619,22 @@ StoreResult<std::optional<FleetCorrectionRecord>> PostgresMapStore::fleet_correc
 }  // namespace
 
 std::string mask_password(const std::string& uri) {
-  // postgresql://user:password@host...: the part between the first ':' after the scheme and the '@'.
-  const auto scheme = uri.find("://");
-  if (scheme == std::string::npos) return uri;
-  const auto at = uri.find('@', scheme + 3);
-  if (at == std::string::npos) return uri;
-  const auto colon = uri.find(':', scheme + 3);
-  if (colon == std::string::npos || colon > at) return uri;
-  return uri.substr(0, colon + 1) + "***" + uri.substr(at);
+  // postgresql://user:password@host...: the part between the first ':' after the scheme and the '@' (an '@' in a
+  // password is written %40, so the last '@' before the path ends the user info); and a ?password= / &password= value.
+  std::string out = uri;
+  const auto scheme = out.find("://");
+  if (scheme == std::string::npos) return out;
+  const auto path = out.find_first_of("/?", scheme + 3);
+  const auto at = out.rfind('@', path == std::string::npos ? std::string::npos : path);
+  const auto colon = out.find(':', scheme + 3);
+  if (at != std::string::npos && at > scheme && colon != std::string::npos && colon < at) out = out.substr(0, colon + 1) + "***" + out.substr(at);
+  for (const char* key : {"?password=", "&password="}) {
+    const auto p = out.find(key);
+    if (p == std::string::npos) continue;
+    const auto value = p + std::strlen(key);
+    out = out.substr(0, value) + "***" + out.substr(std::min(out.find('&', value), out.size()));
+  }
+  return out;
 }
 
 OpenedMapStore open_postgres_map_store(const MapStoreConfig& config) {
