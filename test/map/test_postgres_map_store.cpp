@@ -122,7 +122,10 @@ TEST_CASE("postgres map: keyframes, map clouds, loops and the correction round-t
   const StoreResult<PreparedScan> prepared = store->get_prepared(KeyframeKey{1, 2});
   REQUIRE(prepared.ok());
   require_same_prepared(written.at({1, 2}).record.features->prepared, prepared.value);
-  CHECK(store->get_prepared(KeyframeKey{1, 1}).status.code == Code::kNotFound);
+  const auto shed = store->get_prepared(KeyframeKey{1, 1});
+  CHECK(shed.status.code == Code::kNotFound);
+  CHECK(shed.status.message.find("keyframe 1/1 has no features") != std::string::npos);
+  CHECK(store->get_prepared(KeyframeKey{0, 99}).status.message.find("no keyframe 0/99") != std::string::npos);
 
   const MapKeyframe clouded = with_cloud(keyframe(1, 3, nullptr), 700);
   REQUIRE_OK(store->put_keyframe(clouded));
@@ -190,6 +193,26 @@ TEST_CASE("postgres map: keyframes are read in batches, in key order, each once"
     for (std::size_t n = 0; n < all.size(); ++n)
       REQUIRE(all[n].record.key == KeyframeKey{session_of(4, static_cast<int>(n / 150)), static_cast<std::int64_t>(n % 150)});
   }
+}
+
+TEST_CASE("postgres map: check() finds loops, corrections and indices that break the map's invariants", "[postgres]") {
+  const std::string uri = fresh_database();
+  if (uri.empty()) return;
+  auto store = open_ok(uri);
+  REQUIRE_OK(store->put_session(session(0)));
+  for (std::int64_t i : {0, 1, 3}) REQUIRE_OK(store->put_keyframe(keyframe(0, i, nullptr)));
+  REQUIRE_OK(store->put_loop(loop(1, {0, 3}, {0, 7}, true)));
+  CorrectionRecord c;
+  c.keys = {{0, 0}, {2, 5}};
+  c.T_map_sensor = {pose(0, 0), pose(1, 0)};
+  REQUIRE_OK(store->put_correction(c));
+  const StoreStatus st = store->check();
+  INFO(st.message);
+  CHECK(st.code == Code::kCorrupt);
+  CHECK(st.message.find("fails its check (3 problems)") != std::string::npos);
+  CHECK(st.message.find("loop event 1 (vehicle 0) names keyframe 0/7, which is not stored") != std::string::npos);
+  CHECK(st.message.find("session 0: keyframe indices are not 0..2 (min 0, max 3)") != std::string::npos);
+  CHECK(st.message.find("correction revision 0 names keyframe 2/5, which is not stored") != std::string::npos);
 }
 
 TEST_CASE("postgres map: an aborted transaction leaves nothing, reopening sees everything, another schema is refused", "[postgres]") {

@@ -3,10 +3,9 @@
 #include <pqxx/pqxx>
 
 #include <climits>
-#include <limits>
-#include <cstring>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <map>
 
 #include "loopd/map/keyframe_codec.hpp"
@@ -24,10 +23,10 @@ using Code = StoreStatus::Code;
 using postgres::Connection;
 using Tx = pqxx::transaction_base;
 
-constexpr int kKeptFleetRevisions = 20;
+constexpr int kKeptFleetRevisions = 20;  // joint corrections kept (a reader may still fetch one a little behind)
 // Keyframes per read: ~100 KB each with the prepared scan (a batch of ~13 MB), ~2 KB each without.
 constexpr std::size_t kFullKeyframeBatch = 128;
-constexpr std::size_t kKeyframeBatch = 4096;  // joint corrections kept (a reader may still fetch one a little behind)
+constexpr std::size_t kKeyframeBatch = 4096;
 
 pqxx::binarystring bin(const std::vector<std::uint8_t>& v) { return pqxx::binarystring(v.data(), v.size()); }
 std::vector<std::uint8_t> bytes_of(const pqxx::field& f) {
@@ -146,6 +145,7 @@ StoreStatus PostgresMapStore::put_session(const SessionRecord& r) {
 StoreResult<std::vector<SessionRecord>> PostgresMapStore::sessions() {
   StoreResult<std::vector<SessionRecord>> out;
   const auto [lo, hi] = session_range(vehicle_);
+  std::optional<SessionId> bad_pose;
   out.status = connection_.run("read sessions", [&](Tx& t) {
     for (const pqxx::row& row : t.exec_params("SELECT id, first_utime, sensor, source, T_map_session, anchored FROM sessions "
                                               "WHERE id BETWEEN $1 AND $2 ORDER BY id",
@@ -156,11 +156,16 @@ StoreResult<std::vector<SessionRecord>> PostgresMapStore::sessions() {
       s.sensor = row[2].as<std::string>();
       s.source = row[3].as<std::string>();
       const std::vector<std::uint8_t> pose = bytes_of(row[4]);
-      if (pose.size() == blobs::kPoseBytes) s.T_map_session = blobs::read_pose(pose.data());
+      if (pose.size() != blobs::kPoseBytes) {
+        bad_pose = s.id;
+        return;
+      }
+      s.T_map_session = blobs::read_pose(pose.data());
       s.anchored = row[5].as<bool>();
       out.value.push_back(std::move(s));
     }
   });
+  if (out.ok() && bad_pose) out.status = corrupt("session " + std::to_string(*bad_pose) + ": T_map_session is not 96 bytes");
   return out;
 }
 
@@ -227,7 +232,6 @@ StoreStatus PostgresMapStore::read_keyframe(const pqxx::row& row, KeyframeLoad l
   return {};
 }
 
-/// @brief Reads keyframe rows a query returns, as deep as `load`, and visits them in order.
 /// @brief Visits the keyframes `where` (SQL over keyframes' columns, numbers only) selects, in key order, as deep as
 /// `load`: read in batches (a map's features do not fit in one result), each batch visited after its transaction so a
 /// visitor may write.
@@ -265,17 +269,18 @@ StoreStatus PostgresMapStore::for_each_keyframe(std::optional<SessionId> session
 
 StoreResult<PreparedScan> PostgresMapStore::get_prepared(const KeyframeKey& key) {
   StoreResult<PreparedScan> out;
+  std::optional<bool> has_features;
   std::vector<std::uint8_t> blob;
-  bool found = false;
   out.status = connection_.run("read keyframe " + to_string(key), [&](Tx& t) {
-    const pqxx::result r = t.exec_params("SELECT features FROM keyframes WHERE session = $1 AND idx = $2 AND has_features", key.session, key.index);
+    const pqxx::result r = t.exec_params("SELECT has_features, features FROM keyframes WHERE session = $1 AND idx = $2", key.session, key.index);
     if (r.empty()) return;
-    found = true;
-    blob = bytes_of(r[0][0]);
+    has_features = r[0][0].as<bool>();
+    if (*has_features) blob = bytes_of(r[0][1]);
   });
   if (!out.ok()) return out;
-  if (!found) {
-    out.status = {Code::kNotFound, "map " + display_ + ": no keyframe " + to_string(key) + " with features"};
+  if (!has_features || !*has_features) {
+    out.status = {Code::kNotFound,
+                  "map " + display_ + (has_features ? ": keyframe " + to_string(key) + " has no features" : ": no keyframe " + to_string(key))};
     return out;
   }
   DecodedFeatures decoded = decode_features(blob);
@@ -321,12 +326,13 @@ StoreResult<std::int64_t> PostgresMapStore::drop_undecided() {
   const auto [lo, hi] = session_range(vehicle_);
   out.status = connection_.run("drop undecided keyframes", [&, lo = lo, hi = hi](Tx& t) {
     const std::string undecided_query = "SELECT 1 FROM keyframes k WHERE k.session = l.query_session AND k.idx = l.query_idx AND NOT k.decided";
+    // Unscoped (vehicle -1): every vehicle's.
     t.exec_params(
-        "DELETE FROM correction c WHERE c.vehicle = $1 AND EXISTS (SELECT 1 FROM loops l WHERE l.vehicle = c.vehicle AND "
+        "DELETE FROM correction c WHERE ($1 < 0 OR c.vehicle = $1) AND EXISTS (SELECT 1 FROM loops l WHERE l.vehicle = c.vehicle AND "
         "l.event_id = c.loop_event_id AND EXISTS (" +
             undecided_query + "))",
-        writer());
-    t.exec_params("DELETE FROM loops l WHERE l.vehicle = $1 AND EXISTS (" + undecided_query + ")", writer());
+        vehicle_);
+    t.exec_params("DELETE FROM loops l WHERE ($1 < 0 OR l.vehicle = $1) AND EXISTS (" + undecided_query + ")", vehicle_);
     out.value =
         static_cast<std::int64_t>(t.exec_params("DELETE FROM keyframes WHERE session BETWEEN $1 AND $2 AND NOT decided", lo, hi).affected_rows());
   });
