@@ -144,7 +144,8 @@ StoreStatus PostgresMapStore::put_session(const SessionRecord& r) {
 
 StoreResult<std::vector<SessionRecord>> PostgresMapStore::sessions() {
   StoreResult<std::vector<SessionRecord>> out;
-  const auto [lo, hi] = session_range(vehicle_);
+  const std::pair<long long, long long> range = session_range(vehicle_);
+  const long long lo = range.first, hi = range.second;
   std::optional<SessionId> bad_pose;
   out.status = connection_.run("read sessions", [&](Tx& t) {
     for (const pqxx::row& row : t.exec_params("SELECT id, first_utime, sensor, source, T_map_session, anchored FROM sessions "
@@ -262,7 +263,8 @@ StoreStatus PostgresMapStore::keyframes_where(const std::string& operation, Keyf
 
 StoreStatus PostgresMapStore::for_each_keyframe(std::optional<SessionId> session, KeyframeLoad load,
                                                 const std::function<void(MapKeyframe&&)>& visit) {
-  auto [lo, hi] = session_range(vehicle_);
+  const std::pair<long long, long long> range = session_range(vehicle_);
+  long long lo = range.first, hi = range.second;
   if (session) lo = hi = *session;
   return keyframes_where("read keyframes", load, "session BETWEEN " + std::to_string(lo) + " AND " + std::to_string(hi), visit);
 }
@@ -323,7 +325,8 @@ StoreStatus PostgresMapStore::mark_decided(const KeyframeKey& key) {
 StoreResult<std::int64_t> PostgresMapStore::drop_undecided() {
   // This vehicle's undecided keyframes, the decisions they made and a correction one of those made: all or nothing.
   StoreResult<std::int64_t> out;
-  const auto [lo, hi] = session_range(vehicle_);
+  const std::pair<long long, long long> range = session_range(vehicle_);
+  const long long lo = range.first, hi = range.second;
   out.status = connection_.run("drop undecided keyframes", [&, lo = lo, hi = hi](Tx& t) {
     const std::string undecided_query = "SELECT 1 FROM keyframes k WHERE k.session = l.query_session AND k.idx = l.query_idx AND NOT k.decided";
     // Unscoped (vehicle -1): every vehicle's.
@@ -452,7 +455,8 @@ StoreResult<std::optional<CorrectionRecord>> PostgresMapStore::correction() {
 
 StoreResult<MapStats> PostgresMapStore::stats() {
   StoreResult<MapStats> out;
-  const auto [lo, hi] = session_range(vehicle_);
+  const std::pair<long long, long long> range = session_range(vehicle_);
+  const long long lo = range.first, hi = range.second;
   out.status = connection_.run("count records", [&, lo = lo, hi = hi](Tx& t) {
     const pqxx::row r = t.exec_params1(
         "SELECT (SELECT count(*) FROM sessions WHERE id BETWEEN $1 AND $2), (SELECT count(*) FROM keyframes WHERE session BETWEEN $1 AND $2), "
@@ -472,7 +476,8 @@ StoreStatus PostgresMapStore::check() {
   // The map's invariants, as the SQLite map's check (the server checks its own pages; foreign keys tie keyframes to
   // sessions): every decision names stored keyframes, keys consecutive within a session, correction keys stored.
   std::vector<std::string> problems;
-  const auto [lo, hi] = session_range(vehicle_);
+  const std::pair<long long, long long> range = session_range(vehicle_);
+  const long long lo = range.first, hi = range.second;
   const std::string loop_names = "SELECT 'loop event ' || event_id || ' (vehicle ' || vehicle || ') names keyframe ' || ";
   const std::string loop_queries[] = {
       loop_names +
@@ -513,7 +518,8 @@ StoreStatus PostgresMapStore::check() {
 
 StoreStatus PostgresMapStore::for_each_new_remote_keyframe(std::map<SessionId, std::int64_t>& newest_seen, KeyframeLoad load,
                                                            const std::function<void(MapKeyframe&&)>& visit) {
-  const auto [lo, hi] = session_range(vehicle_);
+  const std::pair<long long, long long> range = session_range(vehicle_);
+  const long long lo = range.first, hi = range.second;
   // Per session (few) its newest decided index: an index scan backwards from the session's newest keyframe, not a
   // scan of every keyframe of the fleet.
   std::map<SessionId, std::int64_t> newest_decided;
@@ -524,7 +530,9 @@ StoreStatus PostgresMapStore::for_each_new_remote_keyframe(std::map<SessionId, s
       if (!r[1].is_null()) newest_decided[r[0].as<SessionId>()] = r[1].as<std::int64_t>();
   });
   if (!s.ok()) return s;
-  for (const auto& [session, newest] : newest_decided) {
+  for (const auto& entry : newest_decided) {  // no structured bindings: lambdas below use them (C++17)
+    const SessionId session = entry.first;
+    const std::int64_t newest = entry.second;
     const auto seen = newest_seen.find(session);
     const std::int64_t after = seen == newest_seen.end() ? -1 : seen->second;
     if (newest <= after) continue;
