@@ -1,7 +1,9 @@
-// The map store on PostgreSQL (scripts/pg-local: a server of the test's own on a unix socket, one per test process,
-// a fresh database per test case): the same exact round trips as the SQLite map, transactions, the schema version,
-// two vehicles on one map, the solver lock, joint corrections, a server restart, and connections that cannot be made.
-// Skipped with a warning when the PostgreSQL server binaries are not installed.
+// The map store on PostgreSQL (scripts/pg-local: a server on a unix socket, ctest's fixture shared by every case or
+// else one of the process's own, and a fresh database per test case; the restart case stops a server of its own): the same exact round trips as the
+// SQLite map, transactions, the schema version, two vehicles on one map, the solver lock, joint corrections, a server restart, and connections that
+// cannot be made. Skipped with a warning when the PostgreSQL server binaries are not installed.
+#include <unistd.h>
+
 #include <catch2/catch.hpp>
 #include <chrono>
 #include <memory>
@@ -25,26 +27,34 @@ namespace {
 
 constexpr const char* kPassword = "loopdtest1";
 
-/// @brief The process's server, started at the first use (null when it cannot be: WARNs when the binaries are
-/// missing, FAILs otherwise).
-test::PostgresServer* server() {
-  static test::PostgresServer instance(kPassword);
-  static const bool started = instance.start();
-  if (started) return &instance;
-  if (instance.binaries_missing()) {
-    WARN("skipped: " << instance.reason());
-    return nullptr;
+/// @brief True when `server` runs; else WARNs (the binaries are missing: skip) or FAILs.
+bool usable(test::PostgresServer& server, bool started) {
+  if (started) return true;
+  if (server.binaries_missing()) {
+    WARN("skipped: " << server.reason());
+    return false;
   }
-  FAIL("the PostgreSQL test server did not start: " << instance.reason());
-  return nullptr;
+  FAIL("the PostgreSQL test server did not start: " << server.reason());
+  return false;
 }
 
-/// @brief A fresh database on the process's server (empty string: skip).
-std::string fresh_database() {
+/// @brief The shared server: ctest's fixture (test/CMakeLists.txt) when it runs, else one of this process's own,
+/// started at the first use (null: skip).
+test::PostgresServer* server() {
+  static test::PostgresServer instance(kPassword);
+#ifdef LOOPD_TEST_POSTGRES_DIR
+  static const bool started = instance.attach(LOOPD_TEST_POSTGRES_DIR) || instance.start();
+#else
+  static const bool started = instance.start();
+#endif
+  return usable(instance, started) ? &instance : nullptr;
+}
+
+/// @brief A fresh database on `s` (empty string: skip), named for this process (the fixture's server is shared).
+std::string fresh_database(test::PostgresServer* s = server()) {
   static int databases = 0;
-  test::PostgresServer* s = server();
   if (!s) return "";
-  const std::string uri = s->create_database("map_" + std::to_string(++databases));
+  const std::string uri = s->create_database("map_" + std::to_string(::getpid()) + "_" + std::to_string(++databases));
   INFO(s->reason());
   REQUIRE(!uri.empty());
   return uri;
@@ -433,7 +443,11 @@ TEST_CASE("postgres map: joint corrections are numbered, read back exactly, and 
 TEST_CASE("postgres map: writes while the server is down (stopped or crashed) are kUnavailable, then succeed after it restarts", "[postgres]") {
   const std::string mode = GENERATE("fast", "immediate");  // immediate: as a crash, what was committed must survive
   INFO("stop --mode " << mode);
-  const std::string uri = fresh_database();
+  // Not the shared server (the other cases run meanwhile); one for both modes (its first checkpoint is the slow one).
+  static test::PostgresServer own(kPassword);
+  static const bool started = own.start();
+  if (!usable(own, started)) return;
+  const std::string uri = fresh_database(&own);
   if (uri.empty()) return;
   auto store = open_ok(uri, 1);
   REQUIRE_OK(store->put_session(session(session_of(1))));
@@ -442,7 +456,7 @@ TEST_CASE("postgres map: writes while the server is down (stopped or crashed) ar
   REQUIRE_OK(store->begin());
   REQUIRE_OK(store->put_keyframe(keyframe(session_of(1), 1, nullptr)));
 
-  REQUIRE(server()->stop(mode));
+  REQUIRE(own.stop(mode));
   const StoreStatus in_transaction = store->put_keyframe(keyframe(session_of(1), 2, nullptr));
   INFO(in_transaction.message);
   CHECK(in_transaction.code == Code::kUnavailable);
@@ -455,7 +469,7 @@ TEST_CASE("postgres map: writes while the server is down (stopped or crashed) ar
   }
   CHECK(store->shared()->hold_solver_lock().status.code == Code::kUnavailable);
 
-  REQUIRE(server()->restart());
+  REQUIRE(own.restart());
   REQUIRE_OK(eventually([&] { return store->put_keyframe(keyframe(session_of(1), 1, nullptr)); }));
   REQUIRE_OK(store->put_keyframe(keyframe(session_of(1), 2, nullptr)));
   const std::vector<MapKeyframe> all = load(*store, std::nullopt, KeyframeLoad::kFull);

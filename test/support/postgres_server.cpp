@@ -25,6 +25,7 @@ std::string trimmed(std::string s) {
 PostgresServer::PostgresServer(std::string password) : password_(std::move(password)) {}
 
 PostgresServer::~PostgresServer() {
+  if (!owned_) return;
   if (started_) pg_local("stop " + dir_ + " --mode immediate");
   if (!dir_.empty()) {
     std::error_code ec;
@@ -54,6 +55,14 @@ bool PostgresServer::start() {
   std::string uri;
   started_ = pg_local("start " + dir_ + " --password " + password_, &uri);
   return started_;
+}
+
+bool PostgresServer::attach(const std::string& dir) {
+  if (started_ || !pg_local("status " + dir)) return false;
+  dir_ = dir;
+  owned_ = false;
+  started_ = true;
+  return true;
 }
 
 std::string PostgresServer::uri_with_password(const std::string& password, const std::string& database) const {

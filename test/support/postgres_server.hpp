@@ -14,6 +14,9 @@ class PostgresServer {
 
   /// @brief Initialises and starts the server (database "loopd"); false and reason() when it could not.
   bool start();
+  /// @brief Uses the server already running in `dir` (started by scripts/pg-local with this password, e.g. a ctest
+  /// fixture) instead of one of its own: false when none runs there. It is neither stopped nor removed at the end.
+  bool attach(const std::string& dir);
   /// @brief True when start() failed because the PostgreSQL server binaries are not installed (skip, do not fail).
   bool binaries_missing() const { return binaries_missing_; }
   const std::string& reason() const { return reason_; }
@@ -37,6 +40,7 @@ class PostgresServer {
 
   std::string password_, dir_, reason_;
   bool started_ = false, binaries_missing_ = false;
+  bool owned_ = true;  ///< started here: stopped and removed with the object
 };
 
 }  // namespace loopd::test
