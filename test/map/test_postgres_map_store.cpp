@@ -50,11 +50,12 @@ test::PostgresServer* server() {
   return usable(instance, started) ? &instance : nullptr;
 }
 
-/// @brief A fresh database on `s` (empty string: skip), named for this process (the fixture's server is shared).
+/// @brief A fresh map on `s` (empty string: skip): a schema of its own, named for this process (the fixture's server
+/// is shared), so no database is copied per case.
 std::string fresh_database(test::PostgresServer* s = server()) {
-  static int databases = 0;
+  static int maps = 0;
   if (!s) return "";
-  const std::string uri = s->create_database("map_" + std::to_string(::getpid()) + "_" + std::to_string(++databases));
+  const std::string uri = s->create_schema("map_" + std::to_string(::getpid()) + "_" + std::to_string(++maps));
   INFO(s->reason());
   REQUIRE(!uri.empty());
   return uri;

@@ -75,6 +75,11 @@ std::string PostgresServer::create_database(const std::string& name) {
   return uri_with_password(password_, name);
 }
 
+std::string PostgresServer::create_schema(const std::string& name) {
+  if (!sql(uri(), "CREATE SCHEMA " + name)) return "";
+  return uri() + "&options=-csearch_path%3D" + name;
+}
+
 bool PostgresServer::sql(const std::string& uri, const std::string& sql) {
   std::string quoted = "'";
   for (char c : sql) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);

@@ -26,6 +26,9 @@ class PostgresServer {
   std::string uri_with_password(const std::string& password, const std::string& database = "loopd") const;
   /// @brief Creates database `name` (when missing) and returns its URI; empty on failure (see reason()).
   std::string create_database(const std::string& name);
+  /// @brief Creates schema `name` in database "loopd" and returns a URI whose search_path is only that schema (a
+  /// fresh map without copying a database); empty on failure (see reason()).
+  std::string create_schema(const std::string& name);
   /// @brief Runs `sql` on the database `uri` names with psql; false and reason() when it fails.
   bool sql(const std::string& uri, const std::string& sql);
   /// @brief The folder that holds the socket (a URI's host).
