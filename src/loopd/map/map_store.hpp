@@ -46,11 +46,6 @@ struct MapStoreConfig {
   /// "postgresql://[user[:password]@][host][:port]/database[?param=value...]" (a libpq connection URI, e.g.
   /// "postgresql://loopd:secret@/fleet?host=/run/postgresql"): a map shared by a fleet on a PostgreSQL server.
   std::string uri;
-  /// The fleet vehicle this process writes for (PostgreSQL only; -1: none). Its sessions are numbered
-  /// vehicle * kSessionsPerVehicle + k, and the MapStore verbs (for_each_keyframe(nullopt), for_each_loop, correction,
-  /// drop_undecided, stats, check) see only its own sessions and decisions; the other vehicles' are read through
-  /// shared() (map/shared_map.hpp). -1 sees the whole map (loopd-map, the single-vehicle daemon).
-  int vehicle = -1;
   /// SQLite `synchronous` in WAL mode: "normal" (a committed record survives a crash of loopd; the last commits may be
   /// lost on power loss) or "full" (survives power loss; an fsync per commit).
   std::string synchronous = "normal";
@@ -59,6 +54,11 @@ struct MapStoreConfig {
   /// Cap on the map's size in pages of 4 KiB (SQLite `max_page_count`; 0: no cap beyond SQLite's own). A write past it
   /// fails with kIo as on a full disk: tests simulate a full disk with it.
   std::int64_t max_pages = 0;
+  /// The fleet vehicle this process writes for (PostgreSQL only; -1: none). Its sessions are numbered
+  /// vehicle * kSessionsPerVehicle + k, and the MapStore verbs (for_each_keyframe(nullopt), for_each_loop, correction,
+  /// drop_undecided, stats, check) see only its own sessions and decisions; the other vehicles' are read through
+  /// shared() (map/shared_map.hpp). -1 sees the whole map (loopd-map, the single-vehicle daemon).
+  int vehicle = -1;
   std::optional<std::string> validate() const;
 };
 
