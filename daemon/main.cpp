@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "daemon_config.hpp"
+#include "loopd/core/sensor_estimate.hpp"
 #include "heap_release.hpp"
 #include "lcm_node.hpp"
 #include "log_level.hpp"
@@ -72,7 +73,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("loopd ") + LOOPD_VERSION);
   app.add_option("--lcm-url", lcm_url, "LCM URL to listen and publish on (default from config: udpm://239.255.76.67:7667?ttl=0)");
   app.add_option("--config", config_path, "YAML config file (see loopd.example.yaml); unknown or wrong fields are refused")->check(CLI::ExistingFile);
-  app.add_option("--sensor", sensor, "lidar model preset: vlp16, hdl32, hdl64, os1-64 (overrides the config)");
+  app.add_option("--sensor", sensor,
+                 "lidar model: auto (default: rings read from the scans) or a preset: " + loopd::sensor_choices() + " (overrides the config)");
   app.add_option("--threads", threads, "worker threads (0 = hardware threads; overrides the config)");
   app.add_option("--replay", replay_log, "process an lcm-logger file as fast as possible instead of listening live");
   app.add_option("--output", output_log, "with --replay: write every published message to this lcm-logger file");

@@ -34,6 +34,12 @@ class Binder {
     if (!node) return;
     try {
       const T parsed = node.as<T>();
+      if constexpr (std::is_same_v<T, std::vector<double>>) {
+        if (!std::all_of(parsed.begin(), parsed.end(), [](double x) { return std::isfinite(x); })) {
+          error_ = at(node) + path + ": expected finite numbers";
+          return;
+        }
+      }
       if constexpr (std::is_floating_point_v<T>) {
         if (!std::isfinite(parsed)) {
           error_ = at(node) + path + ": expected a finite number, got '" + node.Scalar().substr(0, 64) + "'";
@@ -121,6 +127,7 @@ class Binder {
   static std::string type_name(const std::int64_t&) { return "an integer"; }
   static std::string type_name(const bool&) { return "true or false"; }
   static std::string type_name(const std::string&) { return "a string"; }
+  static std::string type_name(const std::vector<double>&) { return "a list of numbers"; }
   /// The shortest decimal text (6 to 17 digits) that reads back as exactly `v`.
   static std::string shortest_exact(double v) {
     std::string text;
@@ -141,7 +148,11 @@ class Binder {
       os << v;  // emitted as a string node (quoted by the emitter where needed)
     else if constexpr (std::is_floating_point_v<T>)
       os << shortest_exact(v);  // loads back to the same double
-    else
+    else if constexpr (std::is_same_v<T, std::vector<double>>) {
+      os << "[";
+      for (std::size_t i = 0; i < v.size(); ++i) os << (i ? ", " : "") << shortest_exact(v[i]);
+      os << "]";
+    } else
       os << v;
     return os.str();
   }
@@ -296,15 +307,22 @@ void bind(Binder& b, DaemonConfig& c) {
 
   LoopDetectorConfig& d = e.detector;
   b.field("sensor", d.sensor);
+  b.field("sensor_elevations_deg", d.sensor_elevations_deg);
+  b.field("sensor_columns", d.sensor_columns);
   b.field("keyframe.min_distance", d.keyframe.min_distance);
   b.field("keyframe.min_rotation_deg", d.keyframe.min_rotation_deg);
   b.field("keyframe.max_interval", d.keyframe.max_interval);
+  b.field("keyframe.spacing_per_scale", d.keyframe.spacing_per_scale);
+  b.field("keyframe.min_spacing", d.keyframe.min_spacing);
   b.field("gate.travel_fraction", d.gate.travel_fraction);
   b.field("gate.min_radius", d.gate.min_radius);
   b.field("gate.max_radius", d.gate.max_radius);
   b.field("gate.min_index_gap", d.gate.min_index_gap);
   b.field("gate.min_travel_gap", d.gate.min_travel_gap);
+  b.field("gate.travel_gap_per_scale", d.gate.travel_gap_per_scale);
+  b.field("gate.min_travel_gap_floor", d.gate.min_travel_gap_floor);
   b.field("descriptor.max_distance", d.max_descriptor_distance);
+  b.field("verify.small_scene_scale", d.small_scene_scale);
   b.field("verify.max_prior_rotation_deg", d.max_prior_rotation_deg);
   b.field("descriptor.max_candidates", d.max_candidates_per_keyframe);
   b.field("verify.guided_window", d.guided_window);
@@ -315,9 +333,12 @@ void bind(Binder& b, DaemonConfig& c) {
 }  // namespace
 
 bool apply_sensor_preset(const std::string& sensor, DaemonConfig* config, std::string* error) {
-  const auto model = lidar_model_from_name(sensor);
-  if (!model) {
-    *error = "sensor: unknown lidar model '" + sensor + "' (vlp16, hdl32, hdl64, os1-64)";
+  if (sensor == "custom") {  // its table comes with the config's sensor_elevations_deg (checked by validate)
+    config->engine.detector.sensor = sensor;
+    return true;
+  }
+  if (auto e = validate_sensor_choice(sensor)) {
+    *error = *e;
     return false;
   }
   config->engine.detector.sensor = sensor;

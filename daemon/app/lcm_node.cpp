@@ -491,7 +491,8 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
     return 3;
   }
   // Expected scan size from the lidar model (HDL-64E: 64 x 2083 rays, about 2.4 MB on the wire).
-  const auto model = lidar_model_from_name(engine_config.detector.sensor);
+  const auto model =
+      sensor_model_from_choice(engine_config.detector.sensor, engine_config.detector.sensor_elevations_deg, engine_config.detector.sensor_columns);
   check_receive_buffer(node.lcm_url, model ? model->rays_per_scan() : 130000);
   const double start = wall_s();
   MapSession map;

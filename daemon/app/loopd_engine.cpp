@@ -1,5 +1,7 @@
 #include "loopd_engine.hpp"
 
+#include "loopd/core/scene_scale.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -144,7 +146,8 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
   }
   for (auto& s : scans) {
     residual_since_keyframe_ += s.residual_sum;
-    if (!selector_.accept(s.pose.T_world_sensor, s.utime)) continue;
+    const double scale = config_.detector.keyframe.spacing_per_scale > 0.0 ? scene_scale(s.cloud) : 0.0;
+    if (!selector_.accept(s.pose.T_world_sensor, s.utime, scale)) continue;
     SessionKeys::Assigned assigned = session_keys_.assign(s.utime, s.pose.T_world_sensor);
     if (!assigned.note.empty() && log_enabled(LogLevel::kInfo)) std::fprintf(stderr, "loopd: %s\n", assigned.note.c_str());
     if (assigned.stored) {
@@ -229,6 +232,7 @@ void LoopdEngine::worker_loop() {
     space_cv_.notify_one();
     deskew_scan(job);
     auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud));
+    note_sensor(*features);
     MapCloudBlob map_cloud;
     if (map_clouds_)
       map_cloud = std::make_shared<const std::vector<std::uint8_t>>(
@@ -245,6 +249,32 @@ void LoopdEngine::worker_loop() {
       --busy_;
     }
   }
+}
+
+void LoopdEngine::note_sensor(KeyframeFeatures& f) {
+  constexpr int kMaxLayoutNotes = 5;
+  // The layout up to its angles ("64 rings", "no ring pattern: 64 rows"): angles move by a tenth of a degree a scan.
+  const std::string layout = f.sensor_layout.substr(0, std::min(f.sensor_layout.find(" between"), f.sensor_layout.find(" over")));
+  std::string log_layout, log_mismatch;
+  {
+    std::lock_guard<std::mutex> s(stats_mutex_);
+    if (!f.sensor_layout.empty() && layout != sensor_logged_ && sensor_notes_ < kMaxLayoutNotes) {
+      sensor_logged_ = layout;
+      log_layout = f.sensor_layout + (++sensor_notes_ == kMaxLayoutNotes ? " (further layout notes are not logged)" : "");
+    }
+    if (!f.sensor_mismatch.empty() && !sensor_mismatch_logged_) {
+      sensor_mismatch_logged_ = true;
+      log_mismatch = f.sensor_mismatch;
+    }
+  }
+  if (!log_layout.empty() && log_enabled(LogLevel::kInfo))
+    std::fprintf(stderr, "loopd: sensor (%s): %s\n", config_.detector.sensor.c_str(), log_layout.c_str());
+  if (!log_mismatch.empty())
+    std::fprintf(stderr, "loopd: WARNING: %s (the preset is used as given; --sensor auto reads the rings from the scans)\n", log_mismatch.c_str());
+  f.sensor_layout.clear();
+  f.sensor_layout.shrink_to_fit();
+  f.sensor_mismatch.clear();
+  f.sensor_mismatch.shrink_to_fit();
 }
 
 void LoopdEngine::deskew_scan(Job& job) {

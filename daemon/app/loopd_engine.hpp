@@ -151,6 +151,9 @@ class LoopdEngine {
   void worker_loop();
   /// Deskews the job's scan in place (deskew on, scan with per-point times) and counts what it did.
   void deskew_scan(Job& job);
+  /// Logs what a keyframe's scan showed of the lidar when it differs from what was last logged (a few times at
+  /// most), and a configured preset that does not fit the scans (once); then drops the notes from the features.
+  void note_sensor(KeyframeFeatures& features);
   /// A keyframe done by a worker (or shed), waiting for the sequential stage.
   struct ReadyKeyframe {
     KeyframeInput input;
@@ -203,6 +206,9 @@ class LoopdEngine {
   std::atomic<std::int64_t> sequential_steps_{0};
 
   mutable std::mutex stats_mutex_;
+  std::string sensor_logged_;  ///< (under stats_mutex_) the last logged sensor layout's rings or rows
+  int sensor_notes_ = 0;       ///< (under stats_mutex_) layout notes logged
+  bool sensor_mismatch_logged_ = false;
   EngineStats stats_;
   Eigen::Isometry3d T_map_odom_ = Eigen::Isometry3d::Identity();
 };

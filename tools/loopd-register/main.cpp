@@ -3,7 +3,9 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "daemon_config.hpp"
 #include "loopd/core/lidar_model.hpp"
+#include "loopd/core/sensor_estimate.hpp"
 #include "loopd/core/pose.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/pipeline/register_scans.hpp"
@@ -13,12 +15,14 @@ using namespace loopd;
 
 int main(int argc, char** argv) {
   CLI::App app("loopd-register: align QUERY onto MATCH (plane-based 4PCS, no initial guess)");
-  std::string query_file, match_file, lidar;
+  std::string query_file, match_file, sensor, config_path;
   bool json = false;
   ScanRegistrationConfig config;
   app.add_option("QUERY", query_file, "query scan (.bin KITTI, .pcd, .ply)")->required();
   app.add_option("MATCH", match_file, "match scan (.bin KITTI, .pcd, .ply)")->required();
-  app.add_option("--lidar", lidar, "lidar model for rings from elevation: vlp16 | hdl32 | hdl64 | os1-64 (default: bin elevations)");
+  app.add_option("--sensor,--lidar", sensor,
+                 "lidar model for the range image: auto (rings read from each scan, loopd's default), " + sensor_choices());
+  app.add_option("--config", config_path, "loopd's YAML config: its sensor, keyframe cloud and 4PCS settings (as the daemon registers keyframes)");
   app.add_option("--voxel", config.prepare.voxel_size, "voxel size of the LCP cloud [m]")->capture_default_str();
   app.add_option("--delta", config.four_pcs.delta, "LCP distance [m]")->capture_default_str();
   app.add_option("--max-bases", config.four_pcs.max_bases, "coplanar bases tried")->capture_default_str();
@@ -26,14 +30,31 @@ int main(int argc, char** argv) {
   app.add_flag("--json", json, "one JSON object as the last stdout line");
   CLI11_PARSE(app, argc, argv);
 
-  std::optional<LidarModel> model;
-  if (!lidar.empty()) {
-    model = lidar_model_from_name(lidar);
-    if (!model) {
-      std::cerr << "loopd-register: unknown lidar model '" << lidar << "'\n";
+  DaemonConfig daemon_config;
+  std::string error;
+  if (!config_path.empty()) {
+    if (!load_config(config_path, &daemon_config, &error)) {
+      std::cerr << "loopd-register: --config " << config_path << ": " << error << "\n";
       return 1;
     }
+    const ScanRegistrationConfig cli = config;
+    config.prepare = daemon_config.engine.detector.prepare;
+    config.four_pcs = daemon_config.engine.detector.verify.four_pcs;
+    if (app.count("--voxel")) config.prepare.voxel_size = cli.prepare.voxel_size;
+    if (app.count("--delta")) config.four_pcs.delta = cli.four_pcs.delta;
+    if (app.count("--max-bases")) config.four_pcs.max_bases = cli.four_pcs.max_bases;
+    config.four_pcs.num_threads = cli.four_pcs.num_threads;
   }
+  if (!sensor.empty() && !apply_sensor_preset(sensor, &daemon_config, &error)) {
+    std::cerr << "loopd-register: --sensor: " << error << "\n";
+    return 1;
+  }
+  const LoopDetectorConfig& detector = daemon_config.engine.detector;
+  if (auto e = validate_sensor_choice(detector.sensor, detector.sensor_elevations_deg, detector.sensor_columns)) {
+    std::cerr << "loopd-register: " << *e << "\n";
+    return 1;
+  }
+  const std::optional<LidarModel> model = sensor_model_from_choice(detector.sensor, detector.sensor_elevations_deg, detector.sensor_columns);
   if (auto e = config.validate()) {
     std::cerr << "loopd-register: " << *e << "\n";
     return 1;
@@ -46,7 +67,13 @@ int main(int argc, char** argv) {
   const PointCloud& query = query_read.cloud;
   const PointCloud& match = match_read.cloud;
   double ms_prepare = 0;
-  const FourPcsResult r = register_scans(query, match, model ? &*model : nullptr, config, &ms_prepare);
+  // One model for both scans (register_scans prepares them together): the preset, or what the match scan shows.
+  SensorEstimate seen;
+  const LidarModel* m = model_for_scan(model, match, &seen);
+  if (model) {
+    if (auto mismatch = preset_mismatch(*model, seen)) std::cerr << "loopd-register: WARNING: " << *mismatch << "\n";
+  }
+  const FourPcsResult r = register_scans(query, match, m, config, &ms_prepare);
   double T[16];
   to_row_major(r.T_target_source, T);
   if (json) {

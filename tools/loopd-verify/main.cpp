@@ -3,7 +3,10 @@
 #include <iostream>
 #include <optional>
 
+#include "daemon_config.hpp"
 #include "loopd/core/lidar_model.hpp"
+#include "loopd/core/scene_scale.hpp"
+#include "loopd/core/sensor_estimate.hpp"
 #include "loopd/core/pose.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/pipeline/prepare_scan.hpp"
@@ -18,42 +21,67 @@ double json_number(double v) { return std::isfinite(v) ? v : 1e300; }
 
 int main(int argc, char** argv) {
   CLI::App app("loopd-verify: verify a loop candidate between two scans (4PCS, GICP, degeneracy, Hungarian centroid check)");
-  std::string query_file, match_file, sensor = "hdl64";
+  std::string query_file, match_file, sensor, config_path;
   bool json = false;
-  PrepareConfig prep;
-  VerifyConfig cfg;
+  // The daemon's settings (its defaults, or --config's), so a decision of loopd can be reproduced by hand; the options
+  // below override them.
+  DaemonConfig daemon_config;
+  PrepareConfig prep_cli = daemon_config.engine.detector.prepare;
+  VerifyConfig cfg_cli = daemon_config.engine.detector.verify;
   int threads = 2;
   std::vector<double> guess;
   app.add_option("QUERY", query_file, "query scan (.bin KITTI, .pcd, .ply)")->required();
   app.add_option("MATCH", match_file, "match (older) scan")->required();
-  app.add_option("--sensor", sensor, "lidar model for the range image: vlp16 | hdl32 | hdl64 | os1-64 | none (derive rings)");
-  app.add_option("--voxel", prep.voxel_size, "voxel size [m]")->capture_default_str();
-  app.add_option("--max-range", prep.max_range, "crop range [m]")->capture_default_str();
-  app.add_option("--normal-coherence", prep.range_image_normal_coherence,
+  app.add_option("--config", config_path, "loopd's YAML config: the same sensor, keyframe cloud and verification settings as the daemon");
+  app.add_option("--sensor", sensor,
+                 "lidar model for the range image: auto (rings read from each scan, loopd's default), " + sensor_choices() + "; 'none' is auto");
+  app.add_option("--voxel", prep_cli.voxel_size, "voxel size [m]")->capture_default_str();
+  app.add_option("--max-range", prep_cli.max_range, "crop range [m]")->capture_default_str();
+  app.add_option("--normal-coherence", prep_cli.range_image_normal_coherence,
                  "GICP normals from the range image, none where a voxel's normals agree less than this; 0: k-nearest-neighbour PCA")
       ->capture_default_str();
-  app.add_option("--normal-k", prep.normal_k_neighbors, "neighbours for the k-nearest-neighbour normals")->capture_default_str();
+  app.add_option("--normal-k", prep_cli.normal_k_neighbors, "neighbours for the k-nearest-neighbour normals")->capture_default_str();
   app.add_option("--threads", threads, "threads for GICP and normals")->capture_default_str();
   app.add_option("--guess", guess, "skip 4PCS: GICP starts from this T_match_query (16 row-major numbers)")->expected(16);
-  app.add_option("--min-lcp", cfg.min_lcp_fraction, "4PCS LCP fraction needed")->capture_default_str();
-  app.add_option("--min-fitness", cfg.min_icp_fitness, "GICP inlier share needed")->capture_default_str();
-  app.add_option("--max-residual", cfg.max_icp_residual, "GICP residual allowed [m]")->capture_default_str();
-  app.add_option("--max-degeneracy", cfg.max_degeneracy_ratio, "translational condition number allowed")->capture_default_str();
-  app.add_option("--min-consistency", cfg.min_hungarian_consistency, "cluster centroid share needed")->capture_default_str();
+  app.add_option("--min-lcp", cfg_cli.min_lcp_fraction, "4PCS LCP fraction needed")->capture_default_str();
+  app.add_option("--min-fitness", cfg_cli.min_icp_fitness, "GICP inlier share needed")->capture_default_str();
+  app.add_option("--max-residual", cfg_cli.max_icp_residual, "GICP residual allowed [m]")->capture_default_str();
+  app.add_option("--max-degeneracy", cfg_cli.max_degeneracy_ratio, "translational condition number allowed")->capture_default_str();
+  app.add_option("--min-consistency", cfg_cli.min_hungarian_consistency, "cluster centroid share needed")->capture_default_str();
   app.add_flag("--json", json, "one JSON object as the last stdout line");
   CLI11_PARSE(app, argc, argv);
 
-  std::optional<LidarModel> model;
-  if (sensor != "none") {
-    model = lidar_model_from_name(sensor);
-    if (!model) {
-      std::cerr << "loopd-verify: unknown sensor '" << sensor << "'\n";
-      return 1;
-    }
+  std::string error;
+  if (!config_path.empty() && !load_config(config_path, &daemon_config, &error)) {
+    std::cerr << "loopd-verify: --config " << config_path << ": " << error << "\n";
+    return 1;
   }
+  LoopDetectorConfig& detector = daemon_config.engine.detector;
+  if (sensor == "none") sensor = "auto";
+  if (!sensor.empty() && !apply_sensor_preset(sensor, &daemon_config, &error)) {
+    std::cerr << "loopd-verify: --sensor: " << error << "\n";
+    return 1;
+  }
+  PrepareConfig prep = detector.prepare;
+  VerifyConfig cfg = detector.verify;
+  const auto given = [&](const char* name) { return app.count(name) > 0; };
+  if (given("--voxel")) prep.voxel_size = prep_cli.voxel_size;
+  if (given("--max-range")) prep.max_range = prep_cli.max_range;
+  if (given("--normal-coherence")) prep.range_image_normal_coherence = prep_cli.range_image_normal_coherence;
+  if (given("--normal-k")) prep.normal_k_neighbors = prep_cli.normal_k_neighbors;
+  if (given("--min-lcp")) cfg.min_lcp_fraction = cfg_cli.min_lcp_fraction;
+  if (given("--min-fitness")) cfg.min_icp_fitness = cfg_cli.min_icp_fitness;
+  if (given("--max-residual")) cfg.max_icp_residual = cfg_cli.max_icp_residual;
+  if (given("--max-degeneracy")) cfg.max_degeneracy_ratio = cfg_cli.max_degeneracy_ratio;
+  if (given("--min-consistency")) cfg.min_hungarian_consistency = cfg_cli.min_hungarian_consistency;
+  const std::optional<LidarModel> model = sensor_model_from_choice(detector.sensor, detector.sensor_elevations_deg, detector.sensor_columns);
   prep.num_threads = threads;
   cfg.gicp.num_threads = threads;
   cfg.four_pcs.num_threads = threads;
+  if (auto err = detector.validate()) {
+    std::cerr << "loopd-verify: " << *err << "\n";
+    return 1;
+  }
   if (auto err = prep.validate()) {
     std::cerr << "loopd-verify: " << *err << "\n";
     return 1;
@@ -69,9 +97,13 @@ int main(int argc, char** argv) {
   }
   const PointCloud& query_cloud = query_read.cloud;
   const PointCloud& match_cloud = match_read.cloud;
-  const LidarModel* m = model ? &*model : nullptr;
-  const PreparedScan query = prepare_scan(query_cloud, m, prep);
-  const PreparedScan match = prepare_scan(match_cloud, m, prep);
+  SensorEstimate query_seen, match_seen;
+  const PreparedScan query = prepare_scan(query_cloud, model_for_scan(model, query_cloud, &query_seen), prep);
+  const PreparedScan match = prepare_scan(match_cloud, model_for_scan(model, match_cloud, &match_seen), prep);
+  for (const SensorEstimate* seen : {&query_seen, &match_seen}) {
+    const auto mismatch = model ? preset_mismatch(*model, *seen) : std::nullopt;
+    if (mismatch) std::cerr << "loopd-verify: WARNING: " << *mismatch << "\n";
+  }
   VerifyResult r;
   if (guess.size() == 16) {
     r = verify_from_guess(query, match, from_row_major(guess.data()), cfg);
@@ -106,6 +138,8 @@ int main(int argc, char** argv) {
     std::vector<double> info(r.information.data(), r.information.data() + 36);  // (t, r) order, core/information.hpp
     j["information"] = info;
     j["points"] = {{"query", query.points.size()}, {"match", match.points.size()}};
+    j["sensor"] = {{"choice", detector.sensor}, {"query", query_seen.describe()}, {"match", match_seen.describe()}};
+    j["scene_scale"] = {{"query", scene_scale(query_cloud)}, {"match", scene_scale(match_cloud)}};
     j["bytes"] = {{"query", query.bytes()}, {"match", match.bytes()}};
     tools::print_json_line(j);
     return 0;
@@ -131,6 +165,8 @@ int main(int argc, char** argv) {
   for (int i = 0; i < 4; ++i)
     std::cout << "  " << tools::fmt(T[4 * i], 5) << " " << tools::fmt(T[4 * i + 1], 5) << " " << tools::fmt(T[4 * i + 2], 5) << " "
               << tools::fmt(T[4 * i + 3], 4) << "\n";
+  std::cout << "sensor " << detector.sensor << ": query " << query_seen.describe() << "; match " << match_seen.describe() << "\n";
+  std::cout << "scene scale [m]: query " << tools::fmt(scene_scale(query_cloud), 1) << ", match " << tools::fmt(scene_scale(match_cloud), 1) << "\n";
   std::cout << "points: query " << query.points.size() << ", match " << match.points.size() << "; keyframe bytes: " << query.bytes() << ", "
             << match.bytes() << "\n";
   return 0;

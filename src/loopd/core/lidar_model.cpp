@@ -104,16 +104,106 @@ LidarModel lidar_model_os1_64_1024() {
   return m;
 }
 
+namespace {
+
+/// An Ouster Rev6/7 sensor with uniform beam spacing over `fov_deg` (centred on the horizon), 1024 columns (10 Hz).
+LidarModel ouster(const std::string& name, int beams, double fov_deg, double max_range) {
+  LidarModel m;
+  m.name = name;
+  m.num_rings = beams;
+  append_linear(-0.5 * fov_deg, 0.5 * fov_deg, beams, &m.vertical_angles_deg);
+  m.azimuth_steps = 1024;
+  m.min_range = 0.5;
+  m.max_range = max_range;
+  m.range_noise_sigma = 0.02;
+  m.dropout_rate = 0.01;
+  return m;
+}
+
+LidarModel spinning(const std::string& name, std::vector<double> angles, int columns, double max_range) {
+  LidarModel m;
+  m.name = name;
+  m.num_rings = static_cast<int>(angles.size());
+  m.vertical_angles_deg = std::move(angles);
+  m.azimuth_steps = columns;
+  m.min_range = 0.5;
+  m.max_range = max_range;
+  m.range_noise_sigma = 0.02;
+  m.dropout_rate = 0.01;
+  return m;
+}
+
+}  // namespace
+
+// Ouster datasheets (Rev6/Rev7): OS0 90 deg vertical FOV, OS1 45 deg, OS2 22.5 deg; 32, 64 or 128 beams;
+// 512/1024/2048 columns (1024 at 10 Hz here). Ranges: OS0 ~50 m, OS1 ~120 m, OS2 ~240 m (80 % reflectivity).
+LidarModel lidar_model_ouster(int generation_fov_index, int beams) {
+  static const char* names[] = {"os0", "os1", "os2"};
+  static const double fov[] = {90.0, 45.0, 22.5}, range[] = {50.0, 120.0, 240.0};
+  const int g = std::clamp(generation_fov_index, 0, 2);
+  std::string name = std::string(names[g]) + "-" + std::to_string(beams);
+  if (g == 1 && beams == 64) name = "os1-64-rev6";  // "os1-64" stays the gen-1 +-16.6 deg unit
+  return ouster(name, beams, fov[g], range[g]);
+}
+
+LidarModel lidar_model_vlp32c() {
+  // VLP-32C user manual, laser elevation table (-25..+15 deg, denser near the horizon); 0.2 deg at 10 Hz, 200 m.
+  return spinning("vlp32c",
+                  {-25.0,  -15.639, -11.31, -8.843, -7.254, -6.148, -5.333, -4.667, -4.0,  -3.667, -3.333, -3.0,  -2.667, -2.333, -2.0,   -1.667,
+                   -1.333, -1.0,    -0.667, -0.333, 0.0,    0.333,  0.667,  1.0,    1.333, 1.667,  2.333,  3.333, 4.667,  7.0,    10.333, 15.0},
+                  1800, 200.0);
+}
+
+LidarModel lidar_model_vls128() {
+  // VLS-128 datasheet: -25..+15 deg, 0.11 deg finest spacing near the horizon, 0.2 deg at 10 Hz, 245 m. The per-laser
+  // table is approximated by three linear blocks (sparse below, 0.11 deg in the middle, sparse above).
+  std::vector<double> a;
+  append_linear(-25.0, -6.0, 20, &a);
+  append_linear(-5.8, 4.0, 90, &a);
+  append_linear(4.4, 15.0, 18, &a);
+  return spinning("vls128", std::move(a), 1800, 245.0);
+}
+
+LidarModel lidar_model_pandar64() {
+  // Hesai Pandar64 datasheet: -25..+15 deg, 0.167 deg finest between -6 and +2 deg; 0.2 deg at 10 Hz; 200 m.
+  // Approximated by three linear blocks.
+  std::vector<double> a;
+  append_linear(-25.0, -7.0, 8, &a);
+  append_linear(-6.0, 2.0, 48, &a);
+  append_linear(3.0, 15.0, 8, &a);
+  return spinning("pandar64", std::move(a), 1800, 200.0);
+}
+
+LidarModel lidar_model_pandar_xt32() {
+  // Hesai PandarXT-32 datasheet: 32 beams, -16..+15 deg at 1 deg, 0.18 deg at 10 Hz (2000 columns), 120 m.
+  std::vector<double> a;
+  append_linear(-16.0, 15.0, 32, &a);
+  return spinning("pandar-xt32", std::move(a), 2000, 120.0);
+}
+
 std::optional<LidarModel> lidar_model_from_name(const std::string& name) {
   if (name == "vlp16") return lidar_model_vlp16();
   if (name == "hdl32") return lidar_model_hdl32();
   if (name == "hdl64") return lidar_model_hdl64();
   if (name == "os1-64") return lidar_model_os1_64();
   if (name == "os1-64-1024") return lidar_model_os1_64_1024();
+  if (name == "vlp32c") return lidar_model_vlp32c();
+  if (name == "vls128") return lidar_model_vls128();
+  if (name == "pandar64") return lidar_model_pandar64();
+  if (name == "pandar-xt32") return lidar_model_pandar_xt32();
+  for (int g = 0; g < 3; ++g) {
+    for (const int beams : {32, 64, 128}) {
+      const LidarModel m = lidar_model_ouster(g, beams);
+      if (m.name == name) return m;
+    }
+  }
   return std::nullopt;
 }
 
-std::vector<std::string> lidar_model_names() { return {"vlp16", "hdl32", "hdl64", "os1-64", "os1-64-1024"}; }
+std::vector<std::string> lidar_model_names() {
+  return {"vlp16",   "vlp32c", "hdl32",       "hdl64",   "vls128", "os1-64", "os1-64-1024", "os0-32",   "os0-64",
+          "os0-128", "os1-32", "os1-64-rev6", "os1-128", "os2-32", "os2-64", "os2-128",     "pandar64", "pandar-xt32"};
+}
 
 int ring_from_elevation(const LidarModel& model, double elevation_rad) {
   const auto& a = model.vertical_angles_deg;

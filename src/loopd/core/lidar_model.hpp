@@ -38,7 +38,19 @@ LidarModel lidar_model_os1_64();
 /// @brief Ouster OS1-64 in 1024-column mode (also 10 Hz).
 LidarModel lidar_model_os1_64_1024();
 
-/// @brief Model by name: "vlp16", "hdl32", "hdl64", "os1-64" (2048 columns), "os1-64-1024"; nullopt if unknown.
+/// @brief Ouster Rev6/7 with uniform beams: generation_fov_index 0 = OS0 (90 deg), 1 = OS1 (45 deg), 2 = OS2
+/// (22.5 deg); beams 32, 64 or 128; 1024 columns. Named "os0-64", "os1-128", ...; the OS1-64 is "os1-64-rev6".
+LidarModel lidar_model_ouster(int generation_fov_index, int beams);
+/// @brief Velodyne VLP-32C (Ultra Puck): 32 beams -25..+15 deg from the manual's table, 1800 columns, 200 m.
+LidarModel lidar_model_vlp32c();
+/// @brief Velodyne VLS-128 (Alpha Prime): 128 beams -25..+15 deg, 0.11 deg near the horizon (approximated), 1800 columns.
+LidarModel lidar_model_vls128();
+/// @brief Hesai Pandar64: 64 beams -25..+15 deg, 0.167 deg between -6 and +2 deg (approximated), 1800 columns.
+LidarModel lidar_model_pandar64();
+/// @brief Hesai PandarXT-32: 32 beams -16..+15 deg at 1 deg, 2000 columns.
+LidarModel lidar_model_pandar_xt32();
+
+/// @brief Model by name (lidar_model_names()); nullopt if unknown. "auto" is not a model: see sensor_estimate.hpp.
 std::optional<LidarModel> lidar_model_from_name(const std::string& name);
 /// @brief Names accepted by lidar_model_from_name.
 std::vector<std::string> lidar_model_names();

@@ -29,6 +29,9 @@ struct KeyframeFeatures {
   double ms_prepare = 0.0;         ///< [ms]
   std::size_t input_points = 0;    ///< points in the raw scan
   std::size_t invalid_points = 0;  ///< NaN/Inf points removed
+  float scene_scale = 0.f;         ///< [m] scene_scale() of the scan (sizes the travel gap of this keyframe's queries); not stored
+  std::string sensor_layout;       ///< what the scan showed of its lidar (SensorEstimate::describe); not stored
+  std::string sensor_mismatch;     ///< how the configured preset differs from the scan; empty: it fits (or "auto")
   /// The prepared scan is not held here (`prepared` is empty): it is in the map store and read back on demand.
   bool prepared_in_store = false;
 

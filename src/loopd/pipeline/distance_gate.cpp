@@ -24,11 +24,18 @@ std::optional<std::string> DistanceGateConfig::validate() const {
   if (!(max_radius >= min_radius)) return "gate.max_radius must be >= gate.min_radius";
   if (min_index_gap < 1) return "gate.min_index_gap must be >= 1";
   if (!(min_travel_gap >= 0.0)) return "gate.min_travel_gap must be >= 0";
+  if (!(travel_gap_per_scale >= 0.0 && std::isfinite(travel_gap_per_scale))) return "gate.travel_gap_per_scale must be >= 0";
+  if (!(min_travel_gap_floor >= 0.0 && std::isfinite(min_travel_gap_floor))) return "gate.min_travel_gap_floor must be >= 0 [m]";
   return std::nullopt;
 }
 
 double DistanceGate::radius(double travelled_since_loop) const {
   return std::clamp(config_.travel_fraction * travelled_since_loop, config_.min_radius, config_.max_radius);
+}
+
+double DistanceGate::travel_gap(double scene_scale) const {
+  if (!(config_.travel_gap_per_scale > 0.0 && scene_scale > 0.0)) return config_.min_travel_gap;
+  return std::min(config_.min_travel_gap, std::max(config_.min_travel_gap_floor, config_.travel_gap_per_scale * scene_scale));
 }
 
 DistanceGate::CellKey DistanceGate::key(const Eigen::Vector3d& p) const {
@@ -54,9 +61,15 @@ void DistanceGate::rebuild() {
   for (std::size_t i = 0; i < entries_.size(); ++i) cells_[key(entries_[i].position)].push_back(i);
 }
 
-std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, double radius,
-                                                    const std::function<bool(const KeyframeKey&)>& accept) const {
+std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, double radius, const std::function<bool(const KeyframeKey&)>& accept,
+                                                    double travel_gap) const {
   std::vector<GateCandidate> out;
+  const double min_travel = travel_gap >= 0.0 ? travel_gap : config_.min_travel_gap;
+  // A scaled-down travel gap scales the index gap with it (keyframes lie closer together in a small scene too).
+  const int min_index_gap =
+      min_travel < config_.min_travel_gap && config_.min_travel_gap > 0.0
+          ? std::max(std::min(config_.min_index_gap, 5), static_cast<int>(std::lround(config_.min_index_gap * min_travel / config_.min_travel_gap)))
+          : config_.min_index_gap;
   const double cell = config_.max_radius;
   const std::int64_t cx = static_cast<std::int64_t>(std::floor(query.position.x() / cell));
   const std::int64_t cy = static_cast<std::int64_t>(std::floor(query.position.y() / cell));
@@ -67,8 +80,8 @@ std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, doub
       for (std::size_t i : it->second) {
         const GateEntry& e = entries_[i];
         const bool same_session = e.key.session == query.key.session;
-        if (same_session && keyframes_between(e.key, query.key) < config_.min_index_gap) continue;
-        if (same_session && query.travelled - e.travelled < config_.min_travel_gap) continue;
+        if (same_session && keyframes_between(e.key, query.key) < min_index_gap) continue;
+        if (same_session && query.travelled - e.travelled < min_travel) continue;
         const double d = (e.position - query.position).norm();
         if (d <= radius && (!accept || accept(e.key))) out.push_back({e.key, d});
       }

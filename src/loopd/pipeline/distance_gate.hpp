@@ -20,7 +20,12 @@ struct DistanceGateConfig {
   double min_radius = 8.0;        ///< [m] lower clamp
   double max_radius = 40.0;       ///< [m] upper clamp
   int min_index_gap = 30;         ///< keyframes between query and candidate of one session (Ren 2019 rule 1)
-  double min_travel_gap = 60.0;   ///< [m] travelled distance between query and candidate (Ren 2019 rule 2)
+  double min_travel_gap = 60.0;   ///< [m] travelled distance between query and candidate (Ren 2019 rule 2), at car scale
+  /// Scale from the scene: the travel gap is min(min_travel_gap, this x the query scan's scene_scale()), so a handheld
+  /// walk through a courtyard (scale 10-20 m) closes a revisit after 15-30 m while a car in a street (40-80 m) keeps Ren's
+  /// 60 m. The index gap shrinks in the same proportion (to no fewer than 5). 0: off.
+  double travel_gap_per_scale = 1.5;
+  double min_travel_gap_floor = 8.0;  ///< [m] the scaled travel gap is never below this
   std::optional<std::string> validate() const;
 };
 
@@ -51,7 +56,11 @@ class DistanceGate {
   void update_positions(const std::function<Eigen::Vector3d(const KeyframeKey&)>& position_of);
   /// @brief Keyframes within `radius` of `query` that satisfy the index and travel gaps (within one session) and
   /// `accept` (empty: all), nearest first.
-  std::vector<GateCandidate> candidates(const GateEntry& query, double radius, const std::function<bool(const KeyframeKey&)>& accept = {}) const;
+  /// @param travel_gap [m] the travel gap for this query (travel_gap()); negative: config's min_travel_gap.
+  std::vector<GateCandidate> candidates(const GateEntry& query, double radius, const std::function<bool(const KeyframeKey&)>& accept = {},
+                                        double travel_gap = -1.0) const;
+  /// @brief [m] The travel gap for a query whose scan has this scene scale (0: unknown, the configured gap).
+  double travel_gap(double scene_scale) const;
   std::size_t size() const { return entries_.size(); }
 
  private:

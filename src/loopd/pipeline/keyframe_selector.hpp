@@ -13,6 +13,11 @@ struct KeyframeConfig {
   double min_distance = 2.0;       ///< [m] translation since the last keyframe
   double min_rotation_deg = 15.0;  ///< [deg] rotation since the last keyframe
   double max_interval = 10.0;      ///< [s] time since the last keyframe (0 disables)
+  /// Scale from the scene: the distance rule is min(min_distance, this x the scan's scene_scale()), so keyframes of a
+  /// walk through a courtyard (scale 10-20 m) lie 0.7-1.3 m apart and a car's in a street (40-80 m) min_distance apart.
+  /// 0: off.
+  double spacing_per_scale = 0.0667;
+  double min_spacing = 0.25;  ///< [m] the scaled distance rule is never below this
   std::optional<std::string> validate() const;
 };
 
@@ -21,7 +26,10 @@ class KeyframeSelector {
  public:
   explicit KeyframeSelector(const KeyframeConfig& config) : config_(config) {}
   /// @brief True when the scan at this odometry pose and time should be a keyframe; remembers it if so.
-  bool accept(const Eigen::Isometry3d& T_odom_sensor, std::int64_t utime);
+  /// @param scene_scale [m] the scan's scene_scale() (0: unknown, min_distance as configured)
+  bool accept(const Eigen::Isometry3d& T_odom_sensor, std::int64_t utime, double scene_scale = 0.0);
+  /// @brief [m] The distance rule for a scan of this scene scale.
+  double spacing(double scene_scale) const;
 
  private:
   KeyframeConfig config_;

@@ -7,18 +7,20 @@
 #include <map>
 
 #include "loopd/core/cloud_ops.hpp"
+#include "loopd/core/scene_scale.hpp"
 #include "loopd/core/stopwatch.hpp"
 
 namespace loopd {
 
 std::optional<std::string> LoopDetectorConfig::validate() const {
-  if (!lidar_model_from_name(sensor)) return "sensor: unknown lidar model '" + sensor + "' (vlp16, hdl32, hdl64, os1-64)";
+  if (auto e = validate_sensor_choice(sensor, sensor_elevations_deg, sensor_columns)) return e;
   if (auto e = keyframe.validate()) return e;
   if (auto e = gate.validate()) return e;
   if (auto e = m2dp.validate()) return "m2dp: " + *e;
   if (auto e = verify.validate()) return "verify: " + *e;
   if (auto e = correction.validate()) return "correction: " + *e;
   if (!(max_descriptor_distance > 0.0)) return "max_descriptor_distance must be > 0";
+  if (!(small_scene_scale >= 0.0 && std::isfinite(small_scene_scale))) return "verify.small_scene_scale must be >= 0 [m]";
   if (!(max_prior_rotation_deg > 0.0 && max_prior_rotation_deg <= 180.0)) return "verify.max_prior_rotation_deg must be in (0, 180]";
   if (max_candidates_per_keyframe < 1) return "max_candidates_per_keyframe must be >= 1";
   if (guided_window < 0) return "guided_window must be >= 0";
@@ -29,7 +31,7 @@ std::optional<std::string> LoopDetectorConfig::validate() const {
 
 LoopDetector::LoopDetector(const LoopDetectorConfig& config)
     : config_(config),
-      model_(lidar_model_from_name(config.sensor)),
+      model_(sensor_model_from_choice(config.sensor, config.sensor_elevations_deg, config.sensor_columns)),
       m2dp_(std::make_unique<M2dp>(config.m2dp)),
       gate_(config.gate),
       corrector_(config.correction),
@@ -62,7 +64,13 @@ KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
   if (config_.retrieval.enabled) compute_place_descriptors(clean, f);
   f.ms_descriptor = sw.ms();
   sw.reset();
-  f.prepared = prepare_scan(clean, model_ ? &*model_ : nullptr, config_.prepare);
+  // The range image's rings: read from this scan ("auto"), or the preset, checked against what the scan shows.
+  f.scene_scale = static_cast<float>(scene_scale(clean));
+  SensorEstimate seen;
+  const LidarModel* model = model_for_scan(model_, clean, &seen);
+  f.sensor_layout = seen.describe();
+  if (model_) f.sensor_mismatch = preset_mismatch(*model_, seen).value_or("");
+  f.prepared = prepare_scan(clean, model, config_.prepare);
   f.ms_prepare = sw.ms();
   f.ok = true;
   return f;
@@ -108,7 +116,7 @@ class LoopDetector::CandidateVerifications {
   Features query_;  ///< held: a cache eviction while the verifications run frees nothing they use
   std::vector<Features> matches_;
   std::vector<std::optional<Eigen::Isometry3d>> guesses_;
-  const VerifyConfig& config_;
+  const VerifyConfig config_;  // a copy: the query's own settings (verify_config_for)
   std::vector<std::future<VerifyResult>> pending_;
 };
 
@@ -126,7 +134,15 @@ LoopDetector::CandidateVerifications LoopDetector::start_verifications(const Key
     else
       guesses.emplace_back(std::nullopt);
   }
-  return {full_features(query), std::move(matches), std::move(guesses), config_.verify, config_.parallel_candidates && !from_map};
+  return {full_features(query), std::move(matches), std::move(guesses), verify_config_for(query), config_.parallel_candidates && !from_map};
+}
+
+VerifyConfig LoopDetector::verify_config_for(const KeyframeRecord& query) const {
+  VerifyConfig v = config_.verify;
+  const double scale = query.features ? query.features->scene_scale : 0.0;
+  if (config_.small_scene_scale > 0.0 && scale > 0.0 && scale < config_.small_scene_scale)
+    v.min_hungarian_consistency *= std::max(0.6, scale / config_.small_scene_scale);
+  return v;
 }
 
 std::shared_ptr<const KeyframeFeatures> LoopDetector::full_features(const KeyframeRecord& keyframe) const {
@@ -298,7 +314,9 @@ LoopDetector::GatedOutcome LoopDetector::close_gated(const KeyframeRecord& query
   GatedOutcome g;
   g.radius = gate_.radius(travelled_ - travelled_at_last_loop_);
   const GateEntry here{query.key, T_map_query.translation(), travelled_};
-  g.gated = gate_.candidates(here, g.radius, [&](const KeyframeKey& k) { return sessions_.tied(k.session, query.key.session); });
+  g.gated = gate_.candidates(
+      here, g.radius, [&](const KeyframeKey& k) { return sessions_.tied(k.session, query.key.session); },
+      gate_.travel_gap(query.features->scene_scale));
   const std::vector<RankedCandidate> ranked = rank_by_descriptor(g.gated, query.features->descriptor, keyframes_);
   const std::size_t count = count_to_verify(ranked, config_.max_descriptor_distance, config_.max_candidates_per_keyframe);
   if (count == 0 && !ranked.empty()) report_descriptor_rejection(query, ranked.front(), g.radius, out, on_decided);
@@ -344,9 +362,12 @@ std::function<bool(const KeyframeKey&)> LoopDetector::prior_free_filter(const Ke
   // session). The index calls this for every stored keyframe: it must stay a few comparisons.
   const bool beyond_gate = gated.radius >= config_.gate.max_radius;
   std::int64_t newest_allowed = query.key.index - config_.gate.min_index_gap;
+  // Scale from the scene, as the gate's own travel gap (the same share of the configured gap).
+  const double gap_share = config_.gate.min_travel_gap > 0.0 ? gate_.travel_gap(query.features->scene_scale) / config_.gate.min_travel_gap : 1.0;
+  const double retrieval_travel_gap = config_.retrieval.min_travel_gap * gap_share;
   const std::vector<KeyframeRecord>& records = keyframes_.records();
   for (auto it = records.rbegin(); it != records.rend() && it->key.session == query.key.session; ++it) {
-    if (query.travelled - it->travelled >= config_.retrieval.min_travel_gap) {  // travel grows along a session
+    if (query.travelled - it->travelled >= retrieval_travel_gap) {  // travel grows along a session
       newest_allowed = std::min(newest_allowed, it->key.index);
       break;
     }
@@ -398,7 +419,7 @@ void LoopDetector::close_prior_free(const KeyframeRecord& query, const Eigen::Is
     const std::shared_ptr<const KeyframeFeatures> match_features = full_features(*match);
     VerifyResult v;
     if (match_features)
-      v = verify_candidate(query_features->prepared, match_features->prepared, std::nullopt, config_.verify);
+      v = verify_candidate(query_features->prepared, match_features->prepared, std::nullopt, verify_config_for(query));
     else
       v.reason = "the keyframe's features could not be read back from the map store";
     // A place within the gate of a session tied to the query's has the map's prior: no confirmation (as the gate's own),

@@ -11,6 +11,7 @@
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/core/point_cloud.hpp"
 #include "loopd/core/pose.hpp"
+#include "loopd/core/sensor_estimate.hpp"
 #include "loopd/core/stopwatch.hpp"
 #include "loopd/correction/loop_corrector.hpp"
 #include "loopd/descriptor/m2dp.hpp"
@@ -42,14 +43,23 @@ struct LoopDetectorConfig {
     verify.gicp.num_threads = 1;
     correction.graph.num_threads = 1;
   }
-  std::string sensor = "hdl64";           ///< lidar model preset (vlp16, hdl32, hdl64, os1-64) for segmentation
-  KeyframeConfig keyframe;                ///< Ren 2019 Sec. 3.3.2
-  DistanceGateConfig gate;                ///< Vlaminck 2019 Sec. 4, Ren 2019 Sec. 3.4.1
-  M2dpConfig m2dp;                        ///< Vlaminck 2019 Sec. 4.1 (l=8, t=16, p=4, q=16)
-  PrepareConfig prepare;                  ///< downsampling + segmentation of a keyframe
-  VerifyConfig verify;                    ///< Vlaminck 2019 Sec. 4.2-4.3
-  double max_descriptor_distance = 0.35;  ///< candidates above this M2DP distance are not verified
-  int max_candidates_per_keyframe = 3;    ///< verified best first, at most this many per keyframe
+  /// Lidar model for the segmentation's range image: "auto" (read from each keyframe's scan, sensor_estimate.hpp), a
+  /// preset (lidar_model_names()), or "custom" with sensor_elevations_deg.
+  std::string sensor = "auto";
+  std::vector<double> sensor_elevations_deg;  ///< [deg] "custom": the beams' elevations, ascending
+  int sensor_columns = 1024;                  ///< "custom": columns per revolution
+  KeyframeConfig keyframe;                    ///< Ren 2019 Sec. 3.3.2
+  DistanceGateConfig gate;                    ///< Vlaminck 2019 Sec. 4, Ren 2019 Sec. 3.4.1
+  M2dpConfig m2dp;                            ///< Vlaminck 2019 Sec. 4.1 (l=8, t=16, p=4, q=16)
+  PrepareConfig prepare;                      ///< downsampling + segmentation of a keyframe
+  VerifyConfig verify;                        ///< Vlaminck 2019 Sec. 4.2-4.3
+  double max_descriptor_distance = 0.35;      ///< candidates above this M2DP distance are not verified
+  /// [m] Scale from the scene: below this scene_scale() of the query's scan (a courtyard, rooms) the Hungarian cluster
+  /// consistency needed falls in proportion, to no less than 60 % of verify.min_hungarian_consistency. Small scenes
+  /// segment into many small, view-dependent clusters (furniture, clutter): correct handheld revisits score 0.25-0.34
+  /// where car revisits score above 0.35. 0: off.
+  double small_scene_scale = 30.0;
+  int max_candidates_per_keyframe = 3;  ///< verified best first, at most this many per keyframe
   /// [deg] A gated loop's verified rotation may differ this much from the rotation the corrected map predicts between
   /// the two keyframes (odometry yaw drifts a few degrees per km). A self-similar place (a tunnel seen from its other
   /// end, a symmetric junction) aligns well turned by 90 or 180 deg: that is rejected at stage "prior".
@@ -218,6 +228,8 @@ class LoopDetector {
   bool guided(const KeyframeKey& query) const;
   LoopConstraint count_restored(const LoopDecision& decision, const Information6d& information);
 
+  /// The verification settings for one query (small_scene_scale applied).
+  VerifyConfig verify_config_for(const KeyframeRecord& query) const;
   LoopDetectorConfig config_;
   std::optional<LidarModel> model_;
   std::unique_ptr<M2dp> m2dp_;
