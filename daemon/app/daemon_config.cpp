@@ -300,6 +300,15 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("association.max_pending_scans", e.association.max_pending_scans);
   b.field("association.max_poses", e.association.max_poses);
   b.field("deskew.enabled", e.deskew.enabled);
+  b.field("submap.enabled", e.submap.enabled);
+  b.field("submap.max_coverage_deg", e.submap.max_coverage_deg);
+  int submap_min_points = static_cast<int>(e.submap.min_points);
+  b.field("submap.min_points", submap_min_points);
+  e.submap.min_points = static_cast<std::size_t>(std::max(0, submap_min_points));
+  b.field("submap.window", e.submap.window);
+  b.field("submap.max_travel", e.submap.max_travel);
+  b.field("submap.max_scans", e.submap.max_scans);
+  b.field("submap.confirm", e.submap.confirm);
   b.field("deskew.max_sweep", e.deskew.max_sweep);
   b.field("deskew.max_extrapolation", e.deskew.max_extrapolation);
   b.field("deskew.max_pose_gap", e.deskew.max_pose_gap);

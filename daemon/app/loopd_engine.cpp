@@ -22,6 +22,7 @@ const std::vector<std::string> kCompilerLibraries{"libLLVM", "libclang-cpp"};
 std::optional<std::string> EngineConfig::validate() const {
   if (auto e = association.validate()) return e;
   if (auto e = deskew.validate()) return e;
+  if (auto e = submap.validate()) return e;
   if (auto e = detector.validate()) return e;
   if (num_threads < 0) return "num_threads must be >= 0 (0 = hardware threads)";
   if (queue_capacity < 1) return "queue_capacity must be >= 1";
@@ -46,7 +47,8 @@ LoopdEngine::LoopdEngine(const EngineConfig& config, EngineSink* sink)
         SessionPolicy policy = config.sessions;
         policy.max_speed = config.max_odometry_speed;
         return policy;
-      }()) {
+      }()),
+      scan_window_(config.submap) {
   int n = config_.num_threads > 0 ? config_.num_threads : static_cast<int>(std::thread::hardware_concurrency());
   if (n < 1) n = 1;
   stats_.device = detector_.descriptor_device();
@@ -146,8 +148,13 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
   }
   for (auto& s : scans) {
     residual_since_keyframe_ += s.residual_sum;
+    // A narrow or sparse sensor: every scan is kept a moment for the next keyframe's submap.
+    const bool narrow = scan_window_.update_mode(needs_submap(s.cloud, config_.submap));
     const double scale = config_.detector.keyframe.spacing_per_scale > 0.0 ? scene_scale(s.cloud) : 0.0;
-    if (!selector_.accept(s.pose.T_world_sensor, s.utime, scale)) continue;
+    if (!selector_.accept(s.pose.T_world_sensor, s.utime, scale)) {
+      if (narrow) keep_for_submaps(std::move(s));
+      continue;
+    }
     SessionKeys::Assigned assigned = session_keys_.assign(s.utime, s.pose.T_world_sensor);
     if (!assigned.note.empty() && log_enabled(LogLevel::kInfo)) std::fprintf(stderr, "loopd: %s\n", assigned.note.c_str());
     if (assigned.stored) {
@@ -162,6 +169,11 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     job.input.T_odom_sensor = assigned.T_odom_sensor;
     job.input.residual = residual_since_keyframe_;
     residual_since_keyframe_ = 0.0;
+    job.T_odom_scan = s.pose.T_world_sensor;
+    if (narrow) {
+      job.submap = scan_window_.recent(s.utime, s.pose.T_world_sensor);
+      keep_for_submaps(s);  // a copy: the keyframe's scan belongs to the next keyframes' windows too
+    }
     job.cloud = std::move(s.cloud);
     job.sweep_poses = std::move(s.sweep_poses);
     submit(std::move(job));
@@ -231,6 +243,7 @@ void LoopdEngine::worker_loop() {
     }
     space_cv_.notify_one();
     deskew_scan(job);
+    merge_submap_scans(job);
     auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud));
     note_sensor(*features);
     MapCloudBlob map_cloud;
@@ -275,6 +288,24 @@ void LoopdEngine::note_sensor(KeyframeFeatures& f) {
   f.sensor_layout.shrink_to_fit();
   f.sensor_mismatch.clear();
   f.sensor_mismatch.shrink_to_fit();
+}
+
+void LoopdEngine::keep_for_submaps(AssociatedScan s) {
+  auto kept = std::make_shared<WindowScan>();
+  kept->utime = s.utime;
+  kept->cloud = std::move(s.cloud);
+  kept->T_odom_sensor = s.pose.T_world_sensor;
+  kept->sweep_poses = std::move(s.sweep_poses);
+  scan_window_.push(std::move(kept));
+}
+
+void LoopdEngine::merge_submap_scans(Job& job) {
+  if (job.submap.empty()) return;
+  const int merged = merge_submap(job.submap, job.T_odom_scan, config_.deskew, &job.cloud);
+  job.submap = {};
+  std::lock_guard<std::mutex> s(stats_mutex_);
+  ++stats_.keyframes_submapped;
+  stats_.submap_scans += merged;
 }
 
 void LoopdEngine::deskew_scan(Job& job) {

@@ -15,6 +15,7 @@
 #include "loopd/core/deskew.hpp"
 #include "loopd/map/map_cloud.hpp"
 #include "loopd/pipeline/keyframe_selector.hpp"
+#include "loopd/pipeline/keyframe_submap.hpp"
 #include "loopd/pipeline/loop_detector.hpp"
 #include "map_resume.hpp"
 #include "clock_watch.hpp"
@@ -30,7 +31,8 @@ namespace loopd {
 /// @brief Engine settings beyond the detector's: association, threads, queues, input limits.
 struct EngineConfig {
   AssociationConfig association;
-  DeskewConfig deskew;  ///< motion compensation of keyframe scans that carry per-point times, before their features
+  DeskewConfig deskew;          ///< motion compensation of keyframe scans that carry per-point times, before their features
+  KeyframeSubmapConfig submap;  ///< a narrow or sparse scan's keyframe cloud from the scans just before it
   LoopDetectorConfig detector;
   int num_threads = 0;                         ///< feature/verification workers; 0 = hardware threads
   int queue_capacity = 16;                     ///< keyframes waiting for a worker (see ready_capacity() for the sequential stage)
@@ -80,6 +82,8 @@ struct EngineStats {
   std::int64_t odometry_resets = 0;       ///< odometry resets bridged (OdometryResetFilter)
   std::int64_t sensor_changes = 0;        ///< sensor layout changes (SensorLayoutWatch)
   std::int64_t keyframes_deskewed = 0;    ///< keyframe scans motion-compensated from their per-point times
+  std::int64_t keyframes_submapped = 0;   ///< keyframes whose cloud merged earlier scans (narrow or sparse sensor, submap.*)
+  std::int64_t submap_scans = 0;          ///< earlier scans merged into those keyframes, in all
   std::int64_t deskew_skipped = 0;        ///< keyframe scans with times left as they were: poses do not cover the sweep, or too long a sweep
   double deskew_max_correction = 0.0;     ///< [m] largest distance deskew moved a point
   std::string device;
@@ -136,7 +140,9 @@ class LoopdEngine {
     std::int64_t sequence = 0;  ///< order of submission: the sequential stage takes keyframes in this order
     KeyframeInput input;
     PointCloud cloud;
-    std::vector<StampedPose> sweep_poses;  ///< T_odom_sensor around the sweep (deskew on, scan with times)
+    std::vector<StampedPose> sweep_poses;                           ///< T_odom_sensor around the sweep (deskew on, scan with times)
+    Eigen::Isometry3d T_odom_scan = Eigen::Isometry3d::Identity();  ///< the scan's odometry pose as received (submap frame)
+    std::vector<std::shared_ptr<const WindowScan>> submap;          ///< earlier scans to merge (narrow or sparse sensor)
   };
   void handle_associated(std::vector<AssociatedScan> scans);
   void update_input_health();
@@ -151,6 +157,10 @@ class LoopdEngine {
   void worker_loop();
   /// Deskews the job's scan in place (deskew on, scan with per-point times) and counts what it did.
   void deskew_scan(Job& job);
+  /// The earlier scans of a narrow or sparse sensor merged into the keyframe's cloud (after deskew_scan).
+  void merge_submap_scans(Job& job);
+  /// Keeps a scan in the window of later keyframes' submaps (ingest thread).
+  void keep_for_submaps(AssociatedScan scan);
   /// Logs what a keyframe's scan showed of the lidar when it differs from what was last logged (a few times at
   /// most), and a configured preset that does not fit the scans (once); then drops the notes from the features.
   void note_sensor(KeyframeFeatures& features);
@@ -205,6 +215,7 @@ class LoopdEngine {
   std::atomic<std::int64_t> worker_steps_{0};
   std::atomic<std::int64_t> sequential_steps_{0};
 
+  ScanWindow scan_window_;  ///< (ingest thread) recent scans of a narrow or sparse sensor
   mutable std::mutex stats_mutex_;
   std::string sensor_logged_;  ///< (under stats_mutex_) the last logged sensor layout's rings or rows
   int sensor_notes_ = 0;       ///< (under stats_mutex_) layout notes logged

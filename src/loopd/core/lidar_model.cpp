@@ -19,7 +19,10 @@ void append_linear(double lo, double hi, int n, std::vector<double>* out) {
 
 std::optional<std::string> LidarModel::validate() const {
   if (num_rings <= 0) return std::string("num_rings must be > 0");
-  if (static_cast<int>(vertical_angles_deg.size()) != num_rings) return std::string("vertical_angles_deg must have num_rings entries");
+  const bool spinning = pattern == ScanPattern::kSpinning;
+  if (spinning && static_cast<int>(vertical_angles_deg.size()) != num_rings) return std::string("vertical_angles_deg must have num_rings entries");
+  if (!spinning && vertical_angles_deg.size() != 2) return std::string("a pattern model's vertical_angles_deg is its lowest and highest elevation");
+  if (!spinning && !(horizontal_fov_deg > 0.0 && horizontal_fov_deg <= 360.0)) return std::string("horizontal_fov_deg must be in (0, 360]");
   for (std::size_t i = 1; i < vertical_angles_deg.size(); ++i) {
     if (!(vertical_angles_deg[i] > vertical_angles_deg[i - 1])) return std::string("vertical_angles_deg must be strictly ascending");
   }
@@ -181,6 +184,37 @@ LidarModel lidar_model_pandar_xt32() {
   return spinning("pandar-xt32", std::move(a), 2000, 120.0);
 }
 
+LidarModel lidar_model_avia() {
+  LidarModel m;
+  m.name = "avia";
+  m.pattern = LidarModel::ScanPattern::kRosette;
+  m.num_rings = 6;
+  m.vertical_angles_deg = {-38.6, 38.6};
+  m.horizontal_fov_deg = 70.4;
+  m.azimuth_steps = 4000;  // 6 x 4000 = 24,000 returns a scan at 10 Hz
+  m.min_range = 1.0;
+  m.max_range = 200.0;  // the town's extent; the sensor reaches 450 m
+  m.range_noise_sigma = 0.02;
+  m.dropout_rate = 0.01;
+  return m;
+}
+
+LidarModel lidar_model_mid360() {
+  LidarModel m;
+  m.name = "mid360";
+  m.pattern = LidarModel::ScanPattern::kSpinningNonRepetitive;
+  m.num_rings = 4;
+  m.vertical_angles_deg = {-7.0, 52.0};
+  m.azimuth_steps = 5000;  // 4 x 5000 = 20,000 returns a scan at 10 Hz
+  m.min_range = 0.1;
+  m.max_range = 70.0;
+  m.range_noise_sigma = 0.02;
+  m.dropout_rate = 0.01;
+  return m;
+}
+
+std::vector<std::string> lidar_pattern_model_names() { return {"avia", "mid360"}; }
+
 std::optional<LidarModel> lidar_model_from_name(const std::string& name) {
   if (name == "vlp16") return lidar_model_vlp16();
   if (name == "hdl32") return lidar_model_hdl32();
@@ -191,6 +225,8 @@ std::optional<LidarModel> lidar_model_from_name(const std::string& name) {
   if (name == "vls128") return lidar_model_vls128();
   if (name == "pandar64") return lidar_model_pandar64();
   if (name == "pandar-xt32") return lidar_model_pandar_xt32();
+  if (name == "avia") return lidar_model_avia();
+  if (name == "mid360") return lidar_model_mid360();
   for (int g = 0; g < 3; ++g) {
     for (const int beams : {32, 64, 128}) {
       const LidarModel m = lidar_model_ouster(g, beams);

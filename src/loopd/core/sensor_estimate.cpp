@@ -156,6 +156,20 @@ std::vector<double> histogram_rings(const std::vector<float>& e, double lo, doub
   return strictly_ascending(std::move(rings));
 }
 
+/// Sampled returns of the beam that has the most: those within a third of the spacing (at most 0.15 deg) of its elevation.
+std::size_t fullest_beam(std::vector<float> e, const std::vector<double>& beams) {
+  std::sort(e.begin(), e.end());
+  std::size_t best = 0;
+  for (std::size_t i = 0; i < beams.size(); ++i) {
+    const double gap = std::min(i > 0 ? beams[i] - beams[i - 1] : 1.0, i + 1 < beams.size() ? beams[i + 1] - beams[i] : 1.0);
+    const double w = std::min(0.15, gap / 3.0);
+    const auto lo = std::lower_bound(e.begin(), e.end(), static_cast<float>(beams[i] - w));
+    const auto hi = std::upper_bound(e.begin(), e.end(), static_cast<float>(beams[i] + w));
+    best = std::max(best, static_cast<std::size_t>(hi - lo));
+  }
+  return best;
+}
+
 /// Rings that match a preset's beams (same count, every elevation within 0.5 deg) take the preset's datasheet
 /// elevations, and its columns unless the scan's differ by more than a quarter (another column mode).
 void snap_to_preset(LidarModel* m) {
@@ -235,10 +249,7 @@ SensorEstimate estimate_sensor(const PointCloud& scan, const SensorEstimateConfi
   }
   if (est.rings_resolved) {
     // Columns: the fullest beam's returns over one revolution (a ground beam misses few).
-    const double per_beam = ring_mass.empty()
-                                ? static_cast<double>(s.returns) / static_cast<double>(est.model.vertical_angles_deg.size()) * 2.0
-                                : *std::max_element(ring_mass.begin(), ring_mass.end()) * static_cast<double>(s.stride) *
-                                      static_cast<double>(s.all.size()) / static_cast<double>(s.far.size() >= 2000 ? s.far.size() : s.all.size());
+    const double per_beam = static_cast<double>(fullest_beam(s.all, est.model.vertical_angles_deg)) * static_cast<double>(s.stride);
     est.model.azimuth_steps = std::clamp(static_cast<int>(std::lround(per_beam / coverage)), 64, 8192);
     if (scan.has_rings()) {  // the sample above was of all returns, not of one ring: count the fullest ring exactly
       std::vector<std::size_t> count(static_cast<std::size_t>(scan.num_rings), 0);
@@ -307,7 +318,9 @@ std::optional<LidarModel> sensor_model_from_choice(const std::string& sensor, co
     m.max_range = 200.0;
     return m;
   }
-  return lidar_model_from_name(sensor);
+  const std::optional<LidarModel> m = lidar_model_from_name(sensor);
+  if (m && m->pattern != LidarModel::ScanPattern::kSpinning) return std::nullopt;  // no rings to fix: read each scan
+  return m;
 }
 
 const LidarModel* model_for_scan(const std::optional<LidarModel>& fixed, const PointCloud& scan, SensorEstimate* seen) {
@@ -319,6 +332,7 @@ const LidarModel* model_for_scan(const std::optional<LidarModel>& fixed, const P
 std::string sensor_choices() {
   std::string s = "auto, custom";
   for (const std::string& n : lidar_model_names()) s += ", " + n;
+  for (const std::string& n : lidar_pattern_model_names()) s += ", " + n + " (as auto)";
   return s;
 }
 

@@ -1,5 +1,7 @@
 #include "loopd/sim/lidar_sim.hpp"
 
+#include "loopd/sim/scan_pattern.hpp"
+
 #include <omp.h>
 
 #include <algorithm>
@@ -376,18 +378,13 @@ Sweep make_sweep(const Town& town, const LidarModel& model, const SensorPoseAt& 
   return s;
 }
 
-/// Ray (ring r, column c) of the sweep: the nearest surface, the model's dropouts, the effects' dropouts, range noise.
-/// Leaves *range NaN when nothing returns.
-void cast_sweep_ray(const Town& town, const LidarModel& model, const SensorEffects& fx, const Sweep& s, int c, int r, std::uint64_t seed,
-                    float* range, float* inten) {
-  const auto cu = static_cast<std::size_t>(c), ru = static_cast<std::size_t>(r);
-  const std::size_t ray = cu * static_cast<std::size_t>(model.num_rings) + ru;
-  const Eigen::Vector3d ds(s.cos_el[ru] * s.cos_az[cu], s.cos_el[ru] * s.sin_az[cu], s.sin_el[ru]);
-  const std::size_t pc = s.R.size() == 1 ? 0 : cu;
-  const Ray wr = make_ray(s.o[pc], s.R[pc] * ds);
-  const std::uint64_t h = detail::hash_combine(seed, ray);
+/// One world ray (hash h): the nearest surface, the model's dropouts, the effects' dropouts, range noise. Leaves
+/// *range NaN when nothing returns.
+void cast_world_ray(const Town& town, const LidarModel& model, const SensorEffects& fx, const std::vector<std::uint8_t>& enabled, const Ray& wr,
+                    std::uint64_t h, float* range, float* inten) {
+  const auto& s_enabled = enabled;
   const Hit hit =
-      fx.vegetation ? trace_foliage(town, s.enabled, wr, model.max_range, fx.foliage_density, h) : trace(town, s.enabled, wr, model.max_range);
+      fx.vegetation ? trace_foliage(town, s_enabled, wr, model.max_range, fx.foliage_density, h) : trace(town, s_enabled, wr, model.max_range);
   if (hit.prim == kNone || hit.t < model.min_range) return;
   Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
   double refl = 0.0;
@@ -406,6 +403,48 @@ void cast_sweep_ray(const Town& town, const LidarModel& model, const SensorEffec
   const double noise = model.range_noise_sigma * (sum4 - 2.0) * 1.7320508075688772;
   *range = static_cast<float>(std::max(model.min_range, hit.t + noise));
   *inten = static_cast<float>(intensity);
+}
+
+/// Ray (ring r, column c) of the sweep.
+void cast_sweep_ray(const Town& town, const LidarModel& model, const SensorEffects& fx, const Sweep& s, int c, int r, std::uint64_t seed,
+                    float* range, float* inten) {
+  const auto cu = static_cast<std::size_t>(c), ru = static_cast<std::size_t>(r);
+  const std::size_t ray = cu * static_cast<std::size_t>(model.num_rings) + ru;
+  const Eigen::Vector3d ds(s.cos_el[ru] * s.cos_az[cu], s.cos_el[ru] * s.sin_az[cu], s.sin_el[ru]);
+  const std::size_t pc = s.R.size() == 1 ? 0 : cu;
+  cast_world_ray(town, model, fx, s.enabled, make_ray(s.o[pc], s.R[pc] * ds), detail::hash_combine(seed, ray), range, inten);
+}
+
+/// One scan of a non-repetitive pattern (scan_pattern.hpp): every ray cast from the sensor pose at its time (poses at
+/// 256 instants of the sweep with motion skew), returns in firing order, no ring indices.
+PointCloud simulate_pattern(const Town& town, const LidarModel& model, const SensorPoseAt& pose_at, double period, const SensorEffects& fx,
+                            std::uint64_t seed, int num_threads, int visit) {
+  constexpr int kPoseBins = 256;
+  const std::vector<PatternRay> rays = pattern_rays(model, period, seed);
+  const std::vector<std::uint8_t> enabled = enabled_for_visit(town, visit, fx.vegetation);
+  std::vector<Eigen::Isometry3d> poses;
+  for (int b = 0; b < (fx.motion_skew ? kPoseBins : 1); ++b)
+    poses.push_back(pose_at(fx.motion_skew ? -period * (kPoseBins - 1 - b) / kPoseBins : 0.0));
+  const auto bin_of = [&](float t) {
+    if (poses.size() == 1) return std::size_t{0};
+    return static_cast<std::size_t>(std::clamp(static_cast<int>(std::lround((kPoseBins - 1) + t / period * kPoseBins)), 0, kPoseBins - 1));
+  };
+  std::vector<float> range(rays.size(), std::numeric_limits<float>::quiet_NaN()), inten(rays.size(), 0.0f);
+  const int nt = num_threads > 0 ? num_threads : omp_get_max_threads();
+#pragma omp parallel for schedule(dynamic, 256) num_threads(nt)
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    const Eigen::Isometry3d& T = poses[bin_of(rays[i].time)];
+    cast_world_ray(town, model, fx, enabled, make_ray(T.translation(), T.linear() * rays[i].direction), detail::hash_combine(seed, i), &range[i],
+                   &inten[i]);
+  }
+  PointCloud cloud;
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    if (std::isnan(range[i])) continue;
+    cloud.points.push_back((rays[i].direction * range[i]).cast<float>());
+    cloud.intensity.push_back(inten[i]);
+    if (fx.point_times) cloud.time.push_back(fx.motion_skew ? rays[i].time : 0.f);
+  }
+  return cloud;
 }
 
 /// The returns in ray order (thread-count independent): range times the beam direction in the sensor frame.
@@ -473,6 +512,7 @@ PointCloud simulate_sweep(const Town& town, const LidarModel& model, const Senso
     empty.num_rings = model.num_rings;
     return empty;
   }
+  if (model.pattern != LidarModel::ScanPattern::kSpinning) return simulate_pattern(town, model, pose_at, period, effects, seed, num_threads, visit);
   const Sweep s = make_sweep(town, model, pose_at, period, effects, visit);
   const int cols = model.azimuth_steps;
   const std::size_t num_rays = static_cast<std::size_t>(model.num_rings) * static_cast<std::size_t>(cols);
