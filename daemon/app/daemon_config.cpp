@@ -330,6 +330,7 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("gate.min_travel_gap", d.gate.min_travel_gap);
   b.field("gate.travel_gap_per_scale", d.gate.travel_gap_per_scale);
   b.field("gate.min_travel_gap_floor", d.gate.min_travel_gap_floor);
+  b.field("gate.travel_gap_per_radius", d.gate.travel_gap_per_radius);
   b.field("descriptor.max_distance", d.max_descriptor_distance);
   b.field("verify.small_scene_scale", d.small_scene_scale);
   b.field("verify.max_prior_rotation_deg", d.max_prior_rotation_deg);

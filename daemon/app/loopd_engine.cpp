@@ -150,8 +150,7 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     residual_since_keyframe_ += s.residual_sum;
     // A narrow or sparse sensor: every scan is kept a moment for the next keyframe's submap.
     const bool narrow = scan_window_.update_mode(needs_submap(s.cloud, config_.submap));
-    const double scale = config_.detector.keyframe.spacing_per_scale > 0.0 ? scene_scale(s.cloud) : 0.0;
-    if (!selector_.accept(s.pose.T_world_sensor, s.utime, scale)) {
+    if (!selector_.accept(s.pose.T_world_sensor, s.utime, [&s] { return scene_scale(s.cloud); })) {
       if (narrow) keep_for_submaps(std::move(s));
       continue;
     }

@@ -62,3 +62,28 @@ TEST_CASE("keyframe config refuses negative and out-of-range thresholds") {
   c.max_interval = std::nan("");
   CHECK(c.validate());
 }
+
+TEST_CASE("the distance rule scales with the scene, never below min_spacing, and the scale is computed only when it decides") {
+  KeyframeConfig c;  // 2 m, spacing_per_scale 0.0667, min_spacing 1 m
+  KeyframeSelector s(c);
+  CHECK(s.spacing(15.0) == Approx(1.0005));
+  CHECK(s.spacing(60.0) == Approx(2.0));  // a street: the configured 2 m
+  CHECK(s.spacing(5.0) == Approx(1.0));   // a tunnel: min_spacing
+  int asked = 0;
+  const auto courtyard = [&asked] {
+    ++asked;
+    return 15.0;
+  };
+  CHECK(s.accept(pose(0.0), 0, courtyard));
+  CHECK_FALSE(s.accept(pose(0.5), kSecond / 10, courtyard));  // 0.56 m: below min_spacing, no scale needed
+  CHECK(asked == 0);
+  CHECK(s.accept(pose(0.9), 2 * kSecond / 10, courtyard));  // 1.006 m >= 1.0005 m
+  CHECK(asked == 1);
+  CHECK(s.accept(pose(2.9), 3 * kSecond / 10, courtyard));  // 2.24 m: the 2 m rule alone
+  CHECK(asked == 1);
+  c.spacing_per_scale = 0.0;  // off: 2 m everywhere
+  KeyframeSelector fixed(c);
+  CHECK(fixed.accept(pose(0.0), 0, courtyard));
+  CHECK_FALSE(fixed.accept(pose(1.7), kSecond / 10, courtyard));
+  CHECK(asked == 1);
+}

@@ -180,6 +180,8 @@ nlohmann::json report_json(const EvalReport& rep, const LogReadStats& drive_stat
   j["stretches"] = c.stretches;
   j["stretches_closed"] = c.stretches_closed;
   j["stretches_closed_share"] = c.stretches_closed_share;
+  j["stretch_list"] = nlohmann::json::array();
+  for (const auto& s : c.stretch_list) j["stretch_list"].push_back({{"first_keyframe", s.first}, {"last_keyframe", s.last}, {"closed", s.closed}});
   j["mean_error_before"] = rep.error_before.mean;
   j["mean_error_after"] = rep.error_after.mean;
   j["median_error_before"] = rep.error_before.median;

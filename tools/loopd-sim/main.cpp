@@ -24,7 +24,9 @@ using loopd::tools::fmt;
 int list_sensors(bool json) {
   loopd::tools::Table table({"name", "rings", "vertical [deg]", "columns", "az step [deg]", "range [m]", "noise [m]", "dropout"});
   nlohmann::json arr = nlohmann::json::array();
-  for (const auto& name : loopd::lidar_model_names()) {
+  std::vector<std::string> names = loopd::lidar_model_names();
+  for (const auto& n : loopd::lidar_pattern_model_names()) names.push_back(n);
+  for (const auto& name : names) {
     const auto m = *loopd::lidar_model_from_name(name);
     table.add({m.name, std::to_string(m.num_rings), fmt(m.vertical_angles_deg.front(), 2) + ".." + fmt(m.vertical_angles_deg.back(), 2),
                std::to_string(m.azimuth_steps), fmt(m.azimuth_step_deg(), 4), fmt(m.min_range, 1) + ".." + fmt(m.max_range, 0),

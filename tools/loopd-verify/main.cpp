@@ -9,6 +9,7 @@
 #include "loopd/core/sensor_estimate.hpp"
 #include "loopd/core/pose.hpp"
 #include "loopd/io/cloud_file.hpp"
+#include "loopd/pipeline/loop_detector.hpp"
 #include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/verify/verify.hpp"
 #include "tool_output.hpp"
@@ -62,8 +63,20 @@ int main(int argc, char** argv) {
     std::cerr << "loopd-verify: --sensor: " << error << "\n";
     return 1;
   }
+  if (auto err = detector.validate()) {
+    std::cerr << "loopd-verify: " << *err << "\n";
+    return 1;
+  }
+  const CloudFile query_read = read_cloud_file(query_file), match_read = query_read.ok ? read_cloud_file(match_file) : CloudFile{};
+  if (!query_read.ok || !match_read.ok) {
+    std::cerr << "loopd-verify: " << (query_read.ok ? match_read.error : query_read.error) << "\n";
+    return 1;
+  }
+  const PointCloud& query_cloud = query_read.cloud;
+  const PointCloud& match_cloud = match_read.cloud;
   PrepareConfig prep = detector.prepare;
-  VerifyConfig cfg = detector.verify;
+  // The query's scene scale sets what the daemon needs of it (LoopDetectorConfig::small_scene_scale).
+  VerifyConfig cfg = verify_config_for_scene(detector, scene_scale(query_cloud));
   const auto given = [&](const char* name) { return app.count(name) > 0; };
   if (given("--voxel")) prep.voxel_size = prep_cli.voxel_size;
   if (given("--max-range")) prep.max_range = prep_cli.max_range;
@@ -78,10 +91,6 @@ int main(int argc, char** argv) {
   prep.num_threads = threads;
   cfg.gicp.num_threads = threads;
   cfg.four_pcs.num_threads = threads;
-  if (auto err = detector.validate()) {
-    std::cerr << "loopd-verify: " << *err << "\n";
-    return 1;
-  }
   if (auto err = prep.validate()) {
     std::cerr << "loopd-verify: " << *err << "\n";
     return 1;
@@ -90,13 +99,6 @@ int main(int argc, char** argv) {
     std::cerr << "loopd-verify: " << *err << "\n";
     return 1;
   }
-  const CloudFile query_read = read_cloud_file(query_file), match_read = query_read.ok ? read_cloud_file(match_file) : CloudFile{};
-  if (!query_read.ok || !match_read.ok) {
-    std::cerr << "loopd-verify: " << (query_read.ok ? match_read.error : query_read.error) << "\n";
-    return 1;
-  }
-  const PointCloud& query_cloud = query_read.cloud;
-  const PointCloud& match_cloud = match_read.cloud;
   SensorEstimate query_seen, match_seen;
   const PreparedScan query = prepare_scan(query_cloud, model_for_scan(model, query_cloud, &query_seen), prep);
   const PreparedScan match = prepare_scan(match_cloud, model_for_scan(model, match_cloud, &match_seen), prep);

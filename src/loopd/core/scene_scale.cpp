@@ -1,5 +1,7 @@
 #include "loopd/core/scene_scale.hpp"
 
+#include "loopd/core/fast_atan2.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -33,7 +35,7 @@ double scene_scale(const PointCloud& scan) {
     const float h = std::sqrt(p.x() * p.x() + p.y() * p.y());
     if (i % stride == 0) all.push_back(h);
     if (p.z() < kMinAbove) continue;
-    const float az = std::atan2(p.y(), p.x()) * static_cast<float>(kSectors / (2.0 * M_PI)) + kSectors / 2.0f;
+    const float az = fast_atan2(p.y(), p.x()) * static_cast<float>(kSectors / (2.0 * M_PI)) + kSectors / 2.0f;
     float& sector = horizon[static_cast<std::size_t>(std::clamp(static_cast<int>(az), 0, kSectors - 1))];
     sector = std::max(sector, h);
   }

@@ -6,6 +6,8 @@
 #include <numeric>
 #include <vector>
 
+#include "loopd/core/fast_atan2.hpp"
+
 namespace loopd {
 namespace {
 
@@ -38,7 +40,7 @@ ElevationSample sample_elevations(const PointCloud& scan, const SensorEstimateCo
     s.all.push_back(static_cast<float>(e));
     if (rings) s.ring_of_all.push_back(scan.ring[i]);
     if (r2 >= far2) s.far.push_back(static_cast<float>(e));
-    const double az = std::atan2(p.y(), p.x()) * kRadToDeg + 180.0;
+    const double az = fast_atan2(p.y(), p.x()) * kRadToDeg + 180.0;
     ++s.azimuth_hits[static_cast<std::size_t>(std::clamp(static_cast<int>(az), 0, kAzimuthBins - 1))];
   }
   return s;

@@ -183,7 +183,9 @@ void fill_closure_metrics(const LoopTally& tally, const LoopGroundTruth& lgt, Cl
   cm.stretches = static_cast<int>(lgt.stretches.size());
   for (const auto& [first, last] : lgt.stretches) {
     auto it = tally.covered_correct.lower_bound(first);
-    if (it != tally.covered_correct.end() && *it <= last) ++cm.stretches_closed;
+    const bool closed = it != tally.covered_correct.end() && *it <= last;
+    if (closed) ++cm.stretches_closed;
+    cm.stretch_list.push_back({first, last, closed});
   }
   cm.stretches_closed_share = cm.stretches > 0 ? static_cast<double>(cm.stretches_closed) / cm.stretches : 0.0;
 }

@@ -97,6 +97,12 @@ struct ClosureMetrics {
   int stretches = 0;          ///< revisited stretches (maximal runs of consecutive revisit keyframes)
   int stretches_closed = 0;   ///< stretches with at least one correct accepted loop whose query lies in them
   double stretches_closed_share = 0;
+  /// Each stretch: its first and last keyframe (index into the evaluated keyframes) and whether it was closed.
+  struct Stretch {
+    int first = 0, last = 0;
+    bool closed = false;
+  };
+  std::vector<Stretch> stretch_list;
 };
 
 /// @brief Median / p95 / max of one per-stage timing [ms] over the events where the stage ran (value > 0).

@@ -26,6 +26,7 @@ std::optional<std::string> DistanceGateConfig::validate() const {
   if (!(min_travel_gap >= 0.0)) return "gate.min_travel_gap must be >= 0";
   if (!(travel_gap_per_scale >= 0.0 && std::isfinite(travel_gap_per_scale))) return "gate.travel_gap_per_scale must be >= 0";
   if (!(min_travel_gap_floor >= 0.0 && std::isfinite(min_travel_gap_floor))) return "gate.min_travel_gap_floor must be >= 0 [m]";
+  if (!(travel_gap_per_radius >= 0.0 && std::isfinite(travel_gap_per_radius))) return "gate.travel_gap_per_radius must be >= 0";
   return std::nullopt;
 }
 
@@ -33,9 +34,10 @@ double DistanceGate::radius(double travelled_since_loop) const {
   return std::clamp(config_.travel_fraction * travelled_since_loop, config_.min_radius, config_.max_radius);
 }
 
-double DistanceGate::travel_gap(double scene_scale) const {
+double DistanceGate::travel_gap(double scene_scale, double radius) const {
   if (!(config_.travel_gap_per_scale > 0.0 && scene_scale > 0.0)) return config_.min_travel_gap;
-  return std::min(config_.min_travel_gap, std::max(config_.min_travel_gap_floor, config_.travel_gap_per_scale * scene_scale));
+  const double scaled = std::max({config_.min_travel_gap_floor, config_.travel_gap_per_scale * scene_scale, config_.travel_gap_per_radius * radius});
+  return std::min(config_.min_travel_gap, scaled);
 }
 
 DistanceGate::CellKey DistanceGate::key(const Eigen::Vector3d& p) const {

@@ -1,5 +1,7 @@
 #include "loopd/pipeline/keyframe_submap.hpp"
 
+#include "loopd/core/fast_atan2.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -23,7 +25,7 @@ bool needs_submap(const PointCloud& scan, const KeyframeSubmapConfig& config) {
     if (!p.allFinite() || p.squaredNorm() < 0.01f) continue;
     if (finite++ % 8 != 0) continue;
     ++sampled;
-    const float a = std::atan2(p.y(), p.x()) * static_cast<float>(72.0 / (2.0 * M_PI)) + 36.0f;
+    const float a = fast_atan2(p.y(), p.x()) * static_cast<float>(72.0 / (2.0 * M_PI)) + 36.0f;
     ++sectors[static_cast<std::size_t>(std::clamp(static_cast<int>(a), 0, 71))];
   }
   if (finite < config.min_points) return true;

@@ -138,10 +138,13 @@ LoopDetector::CandidateVerifications LoopDetector::start_verifications(const Key
 }
 
 VerifyConfig LoopDetector::verify_config_for(const KeyframeRecord& query) const {
-  VerifyConfig v = config_.verify;
-  const double scale = query.features ? query.features->scene_scale : 0.0;
-  if (config_.small_scene_scale > 0.0 && scale > 0.0 && scale < config_.small_scene_scale)
-    v.min_hungarian_consistency *= std::max(0.6, scale / config_.small_scene_scale);
+  return verify_config_for_scene(config_, query.features ? query.features->scene_scale : 0.0);
+}
+
+VerifyConfig verify_config_for_scene(const LoopDetectorConfig& config, double scene_scale) {
+  VerifyConfig v = config.verify;
+  if (config.small_scene_scale > 0.0 && scene_scale > 0.0 && scene_scale < config.small_scene_scale)
+    v.min_hungarian_consistency *= std::max(0.6, scene_scale / config.small_scene_scale);
   return v;
 }
 
@@ -316,7 +319,7 @@ LoopDetector::GatedOutcome LoopDetector::close_gated(const KeyframeRecord& query
   const GateEntry here{query.key, T_map_query.translation(), travelled_};
   g.gated = gate_.candidates(
       here, g.radius, [&](const KeyframeKey& k) { return sessions_.tied(k.session, query.key.session); },
-      gate_.travel_gap(query.features->scene_scale));
+      gate_.travel_gap(query.features->scene_scale, g.radius));
   const std::vector<RankedCandidate> ranked = rank_by_descriptor(g.gated, query.features->descriptor, keyframes_);
   const std::size_t count = count_to_verify(ranked, config_.max_descriptor_distance, config_.max_candidates_per_keyframe);
   if (count == 0 && !ranked.empty()) report_descriptor_rejection(query, ranked.front(), g.radius, out, on_decided);
@@ -363,7 +366,8 @@ std::function<bool(const KeyframeKey&)> LoopDetector::prior_free_filter(const Ke
   const bool beyond_gate = gated.radius >= config_.gate.max_radius;
   std::int64_t newest_allowed = query.key.index - config_.gate.min_index_gap;
   // Scale from the scene, as the gate's own travel gap (the same share of the configured gap).
-  const double gap_share = config_.gate.min_travel_gap > 0.0 ? gate_.travel_gap(query.features->scene_scale) / config_.gate.min_travel_gap : 1.0;
+  const double gap_share =
+      config_.gate.min_travel_gap > 0.0 ? gate_.travel_gap(query.features->scene_scale, gated.radius) / config_.gate.min_travel_gap : 1.0;
   const double retrieval_travel_gap = config_.retrieval.min_travel_gap * gap_share;
   const std::vector<KeyframeRecord>& records = keyframes_.records();
   for (auto it = records.rbegin(); it != records.rend() && it->key.session == query.key.session; ++it) {

@@ -81,6 +81,10 @@ struct LoopDetectorConfig {
   std::optional<std::string> validate() const;
 };
 
+/// @brief The verification settings of a query whose scan has this scene_scale() (small_scene_scale applied; 0: as
+/// configured). The detector verifies every candidate of the query with them; loopd-verify does the same by hand.
+VerifyConfig verify_config_for_scene(const LoopDetectorConfig& config, double scene_scale);
+
 /// @brief A keyframe as handed to the sequential stage.
 struct KeyframeInput {
   KeyframeKey key;         ///< the engine numbers a session's keyframes from 0

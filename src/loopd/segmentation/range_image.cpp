@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "loopd/core/fast_atan2.hpp"
 #include "loopd/core/lidar_model.hpp"
 #include "loopd/segmentation/segmentation_internal.hpp"
 
@@ -13,19 +14,6 @@ namespace {
 constexpr int kDefaultColumns = 1024;
 constexpr int kNormalColumnStep = 2;  // wider horizontal baseline: less range noise in the normals
 constexpr int kHorizontalSteps = 2 * kNormalColumnStep, kVerticalSteps = 2;
-
-// atan2 with |error| < 1e-5 rad: column binning needs far less, and libm's atan2 dominated the projection.
-inline float fast_atan2(float y, float x) {
-  const float ax = std::abs(x), ay = std::abs(y);
-  const float mx = std::max(ax, ay);
-  if (mx == 0.f) return 0.f;
-  const float a = std::min(ax, ay) / mx;
-  const float s = a * a;
-  float r = ((-0.0464964749f * s + 0.15931422f) * s - 0.327622764f) * s * a + a;
-  if (ay > ax) r = 1.57079637f - r;
-  if (x < 0) r = 3.14159274f - r;
-  return y < 0 ? -r : r;
-}
 
 // Ring boundaries of a lidar model as sin(elevation): the ring of a point is the number of boundaries below z / r.
 // Same rule as ring_from_elevation (nearest ring, ties to the lower one, half a spacing of tolerance at both ends)
