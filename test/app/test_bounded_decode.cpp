@@ -303,7 +303,7 @@ TEST_CASE("status_t and trajectory_t lengths are checked against the bytes prese
   CHECK(decode_bounded(b.data(), b.size(), DecodeLimits{}, &out).reason == "num_keyframes: = -2 is negative");
 }
 
-TEST_CASE("a damaged event header in a log is skipped and counted; the events after it are read") {
+TEST_CASE("a damaged event header in a log is skipped and counted, the events after it are read") {
   const fs::path path = fs::temp_directory_path() / ("loopd_damaged_" + std::to_string(getpid()) + ".lcmlog");
   {
     LogWriter w;
@@ -435,7 +435,7 @@ TEST_CASE("trajectory_t: full and total_keyframes decode, and a version-1 messag
   CHECK(decode_trajectory_v1(trailing.data(), trailing.size(), DecodeLimits{}, &upgraded).reason == "end of message: 1 trailing bytes");
 }
 
-TEST_CASE("point_cloud_t: per-point times decode; num_point_times other than 0 or num_points is refused before LCM's decoder") {
+TEST_CASE("point_cloud_t: per-point times decode, num_point_times other than 0 or num_points is refused before LCM's decoder") {
   const point_cloud_t scan = with_times(small_scan(3));
   std::vector<std::uint8_t> b = encode(scan);
   point_cloud_t out;

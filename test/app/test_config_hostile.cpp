@@ -49,7 +49,7 @@ TEST_CASE("config: malformed and hostile YAML give an error, never an exception"
   CHECK(load_error(laughs).find("unknown configuration key") != std::string::npos);
 }
 
-TEST_CASE("config files: directories, devices and oversized files are refused by name; dumps with odd strings load back", "[config]") {
+TEST_CASE("config files: directories, devices and oversized files are refused by name, dumps with odd strings load back", "[config]") {
   const fs::path dir = fs::temp_directory_path() / ("loopd_test_config_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   DaemonConfig c;

@@ -171,7 +171,7 @@ TEST_CASE("odometry reset: a restart near the old origin (a jump motion could ex
   CHECK(f.resets() == 1);
 }
 
-TEST_CASE("sensor layout: a new lidar is one change; odd single scans and slow scene changes are none") {
+TEST_CASE("sensor layout: a new lidar is one change, odd single scans and slow scene changes are none") {
   SensorLayoutWatch w;
   for (int i = 0; i < 50; ++i) CHECK_FALSE(w.on_scan(28000 + (i % 7) * 300, 16));
   CHECK_FALSE(w.on_scan(9000, 16));                                          // one partial sweep

@@ -103,7 +103,7 @@ TEST_CASE("a preset that does not fit the scans is reported in one sentence") {
   CHECK(preset_mismatch(lidar_model_ouster(0, 64), estimate_sensor(town_scan(lidar_model_ouster(2, 64), false))).has_value());
 }
 
-TEST_CASE("sensor choices: auto, presets, a custom table; unknown names are refused with the list") {
+TEST_CASE("sensor choices: auto, presets, a custom table, unknown names are refused with the list") {
   CHECK_FALSE(validate_sensor_choice("auto").has_value());
   CHECK_FALSE(validate_sensor_choice("os0-128").has_value());
   CHECK_FALSE(sensor_model_from_choice("auto").has_value());

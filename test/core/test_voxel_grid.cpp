@@ -57,7 +57,7 @@ TEST_CASE("VoxelGrid equals a brute-force map of floor keys, also when its table
   }
 }
 
-TEST_CASE("voxel_key floors negative coordinates and accepts exactly [-2^20, 2^20) voxels") {
+TEST_CASE("voxel_key floors negative coordinates and accepts exactly the voxels -2^20 .. 2^20 - 1") {
   std::uint64_t key = 0;
   REQUIRE(voxel_key(Eigen::Vector3f(-0.1f, 0.1f, 0.f), 1.0, &key));
   CHECK(key >> 42 == (1u << 20) - 1);                   // floor(-0.1) = -1

@@ -299,7 +299,7 @@ TEST_CASE("graph: with a loop at every revisiting keyframe, the decimated graph 
   }
 }
 
-TEST_CASE("max_nodes bounds the graph of a long drive; the coarser graph still closes every loop", "[pose_graph]") {
+TEST_CASE("max_nodes bounds the graph of a long drive, the coarser graph still closes every loop", "[pose_graph]") {
   const Scenario s = make_scenario(900, 5);
   const std::vector<LoopConstraint> loops = find_ground_truth_loops(s.gt, 1.0, 100, 1, 0);  // dense: every revisit
   const auto warm = correct_heuristic_all(s.odom.poses, s.odom.residuals, loops, {});
@@ -329,7 +329,7 @@ TEST_CASE("max_nodes bounds the graph of a long drive; the coarser graph still c
   }
 }
 
-TEST_CASE("segments: a second odometry segment moves rigidly onto its first loop, the first stays; later loops keep both") {
+TEST_CASE("segments: a second odometry segment moves rigidly onto its first loop, the first stays, later loops keep both") {
   auto yaw_pose = [](double x, double y, double yaw) {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.translation() = Eigen::Vector3d(x, y, 0.0);

@@ -55,7 +55,7 @@ int compare(const std::string& a, const std::string& b, const std::string& toler
 }
 }  // namespace
 
-TEST_CASE("deskew.enabled switches motion compensation of a replayed drive; scans without times are untouched") {
+TEST_CASE("deskew.enabled switches motion compensation of a replayed drive, scans without times are untouched") {
   const fs::path dir = fs::temp_directory_path() / ("loopd_deskew_" + std::to_string(getpid()));
   fs::create_directories(dir);
   const auto path = [&dir](const std::string& name) { return (dir / name).string(); };

@@ -130,7 +130,7 @@ TEST_CASE("loopd-eval --map-cloud: the ground-truth map is exact, a displaced on
   CHECK(std::abs(s["map_error_odometry_m"].get<double>() - gt_error) < 1e-6);  // the file given as the odometry map
 }
 
-TEST_CASE("loopd-eval --movers: points inside the boxes counted in the map and the reference; no --map-cloud, null keys", "[eval][map]") {
+TEST_CASE("loopd-eval --movers: points inside the boxes counted in the map and the reference, no --map-cloud, null keys", "[eval][map]") {
   const Replay& r = replay();
   const std::string map = r.dir.file("map_movers.pcd"), movers = r.dir.file("movers.json");
   REQUIRE_FALSE(write_cloud_file(map, r.map));

@@ -227,7 +227,7 @@ TEST_CASE("loopd-map info, trajectory and loops hold what loopd printed and publ
   }
 }
 
-TEST_CASE("loopd-map check passes on a map, fails on a tampered copy; bad files are refused with exit 2") {
+TEST_CASE("loopd-map check passes on a map, fails on a tampered copy, bad files are refused with exit 2") {
   const ReplayedMap& r = replayed();
   int rc = -1;
   auto j = map_json(r.map + " check", &rc);

@@ -39,7 +39,7 @@ std::string parse_error(const std::string& text) {
 
 }  // namespace
 
-TEST_CASE("map_quality: a map shifted by 0.25 m has the oracle's mean error; the same map has none", "[eval]") {
+TEST_CASE("map_quality: a map shifted by 0.25 m has the oracle's mean error, the same map has none", "[eval]") {
   const PointCloud ref = random_cloud(2000);
   PointCloud shifted = ref;
   for (auto& p : shifted.points) p += Eigen::Vector3f(0.25f, 0.f, 0.f);
@@ -62,7 +62,7 @@ TEST_CASE("map_quality: a map shifted by 0.25 m has the oracle's mean error; the
   CHECK(*map_quality(shifted, ref, {}, MapQualityConfig{}).completeness < 0.05);
 }
 
-TEST_CASE("map_quality: half the reference is about half complete; empty clouds give no error figures", "[eval]") {
+TEST_CASE("map_quality: half the reference is about half complete, empty clouds give no error figures", "[eval]") {
   const PointCloud ref = random_cloud(2000);
   PointCloud half;
   half.points.assign(ref.points.begin(), ref.points.begin() + 1000);

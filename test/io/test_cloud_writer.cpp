@@ -77,7 +77,7 @@ TEST_CASE("write_cloud_file: a few thousand points with intensity read back exac
   CHECK(ply.bytes.find("element vertex 0000000020000\n") != std::string::npos);
 }
 
-TEST_CASE("write_cloud_file: a cloud without intensity is written with intensity 0; an empty cloud reads back empty", "[io]") {
+TEST_CASE("write_cloud_file: a cloud without intensity is written with intensity 0, an empty cloud reads back empty", "[io]") {
   TempDir tmp;
   PointCloud xyz = random_cloud(100);
   xyz.intensity.clear();

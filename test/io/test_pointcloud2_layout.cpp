@@ -335,7 +335,7 @@ TEST_CASE("hostile layouts fail with an error naming the field or the length", "
   }
 }
 
-TEST_CASE("an empty cloud decodes to no points; the first of two equal field names counts", "[io][pointcloud2]") {
+TEST_CASE("an empty cloud decodes to no points, the first of two equal field names counts", "[io][pointcloud2]") {
   CloudBuilder b;
   b.field("x", PointFieldType::kFloat32)
       .field("y", PointFieldType::kFloat32)

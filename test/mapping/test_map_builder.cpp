@@ -62,7 +62,7 @@ bool on_ground(const Eigen::Vector3f& p) { return std::abs(p.z()) < 0.15f && std
 
 }  // namespace
 
-TEST_CASE("map builder: an object seen, then seen through, leaves the map; the wall and the ground stay") {
+TEST_CASE("map builder: an object seen, then seen through, leaves the map, the wall and the ground stay") {
   const Scene scene = drive_past_box();
   MapBuildConfig config;
   config.roadway_noise = false;
@@ -90,7 +90,7 @@ TEST_CASE("map builder: an object seen, then seen through, leaves the map; the w
   CHECK(with.map.has_intensity());
 }
 
-TEST_CASE("map builder: keyframes without a map cloud are counted and left out; the octree writes a .bt") {
+TEST_CASE("map builder: keyframes without a map cloud are counted and left out, the octree writes a .bt") {
   Scene scene = drive_past_box();
   const MapCloudSource some = [&scene](const KeyframeKey& key) -> std::optional<PointCloud> {
     if (key.index % 2 == 1) return std::nullopt;

@@ -8,7 +8,7 @@
 
 using namespace loopd;
 
-TEST_CASE("gate radius is 10% of the distance since the last loop, clamped to [min, max]") {
+TEST_CASE("gate radius is 10% of the distance since the last loop, clamped to min and max") {
   const DistanceGateConfig cfg;  // 0.1, 8 m, 40 m
   const DistanceGate g(cfg);
   CHECK(g.radius(0.0) == Approx(8.0));

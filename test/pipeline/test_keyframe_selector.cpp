@@ -38,7 +38,7 @@ TEST_CASE("turning on the spot makes a keyframe at min_rotation_deg") {
   CHECK(s.accept(pose(0.0, -0.5), 4 * kSecond / 10));       // 16 deg back
 }
 
-TEST_CASE("standing still makes a keyframe every max_interval; 0 disables the time rule") {
+TEST_CASE("standing still makes a keyframe every max_interval, 0 disables the time rule") {
   KeyframeSelector s(KeyframeConfig{});
   CHECK(s.accept(pose(0.0), 0));
   CHECK_FALSE(s.accept(pose(0.0), 9 * kSecond));

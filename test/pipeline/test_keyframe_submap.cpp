@@ -29,7 +29,7 @@ std::shared_ptr<const WindowScan> kept(std::int64_t utime, double x, PointCloud 
 
 }  // namespace
 
-TEST_CASE("narrow or sparse scans need a submap; a full spinning scan does not") {
+TEST_CASE("narrow or sparse scans need a submap, a full spinning scan does not") {
   const KeyframeSubmapConfig c;
   CHECK(needs_submap(fan(20000, 70.0), c));  // a 70 deg cone
   CHECK(needs_submap(fan(3000, 360.0), c));  // all round but sparse
@@ -73,7 +73,7 @@ TEST_CASE("earlier scans within the window and the travel join, oldest first, at
   CHECK(near.recent(1'700'000, T_keyframe).size() == 2);  // 1 m and 2 m back; 3 m is beyond the travel
 }
 
-TEST_CASE("merged points land in the keyframe's frame; times and rings are dropped") {
+TEST_CASE("merged points land in the keyframe's frame, times and rings are dropped") {
   PointCloud key;
   key.points = {Eigen::Vector3f(1, 0, 0)};
   key.time = {0.f};

@@ -59,7 +59,7 @@ struct Files {
 };
 }  // namespace
 
-TEST_CASE("loopd-register --json prints T_match_query, lcp and ms; the transform is the true one") {
+TEST_CASE("loopd-register --json prints T_match_query, lcp and ms, the transform is the true one") {
   const Files f;
   for (const std::string extra : {"", " --lidar hdl64"}) {
     std::string out;

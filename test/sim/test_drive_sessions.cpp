@@ -95,7 +95,7 @@ TEST_CASE("session K >= 2 drives the same town from elsewhere, in its own odomet
   }
 }
 
-TEST_CASE("a reversed session drives the route the other way; sessions draw their own noise", "[sim][drive][session]") {
+TEST_CASE("a reversed session drives the route the other way, sessions draw their own noise", "[sim][drive][session]") {
   const auto d1 = loopd::make_drive(small("block", 800, 1));
   const auto d2 = loopd::make_drive(small("block", 400, 2));
   const auto d3 = loopd::make_drive(small("block", 400, 3));
@@ -129,7 +129,7 @@ TEST_CASE("a reversed session drives the route the other way; sessions draw thei
   CHECK(d2.scans[5].odometry.residual != d3.scans[5].odometry.residual);
 }
 
-TEST_CASE("an odometry reset restarts the odometry at identity; ground truth runs on", "[sim][drive][session]") {
+TEST_CASE("an odometry reset restarts the odometry at identity, ground truth runs on", "[sim][drive][session]") {
   for (int k : {1, 2}) {
     CAPTURE(k);
     auto cfg = small("town", 200, k);

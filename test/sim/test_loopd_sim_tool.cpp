@@ -90,7 +90,7 @@ TEST_CASE("with every effect off loopd-sim writes the scans of the simulator bef
   fs::remove_all(dir);
 }
 
-TEST_CASE("loopd-sim's default scans carry per-point times over one sweep; the effects are documented and tunable", "[sim][tool][effects]") {
+TEST_CASE("loopd-sim's default scans carry per-point times over one sweep, the effects are documented and tunable", "[sim][tool][effects]") {
   if (!fs::exists(tool_path())) FAIL("build the loopd-sim target first: " << tool_path());
   const fs::path dir = fs::temp_directory_path() / ("loopd_sim_effects_" + std::to_string(::getpid()));
   fs::create_directories(dir);
@@ -160,7 +160,7 @@ TEST_CASE("loopd-sim writes byte-identical logs for the same seed", "[sim][tool]
   fs::remove_all(dir);
 }
 
-TEST_CASE("loopd-sim --session 1 is today's drive bit for bit; --session and --odometry-reset-at are reported and checked", "[sim][tool][session]") {
+TEST_CASE("loopd-sim --session 1 is today's drive bit for bit, --session and --odometry-reset-at are reported and checked", "[sim][tool][session]") {
   if (!fs::exists(tool_path())) FAIL("build the loopd-sim target first: " << tool_path());
   const fs::path dir = fs::temp_directory_path() / ("loopd_sim_session_" + std::to_string(::getpid()));
   fs::create_directories(dir);
