@@ -26,14 +26,18 @@ double scene_scale(const PointCloud& scan) {
   std::array<float, kSectors> horizon{};
   std::vector<float> all;
   all.reserve(4097);
-  std::size_t stride = scan.size() / 4096 + 1;
-  if (stride % 2 == 0) ++stride;  // odd: no aliasing with the power-of-two ring counts of column-major scans
-  for (std::size_t i = 0; i < scan.size(); ++i) {
+  // Up to 32k returns (every one of a VLP-16 or a handheld scan, every 5th of an HDL-64E's): the farthest per 5 deg
+  // moves little, its median over directions less. Odd strides: no aliasing with power-of-two ring counts.
+  std::size_t step = scan.size() / 32768 + 1;
+  if (step % 2 == 0) ++step;
+  std::size_t stride = (scan.size() / step) / 4096 + 1;
+  if (stride % 2 == 0) ++stride;
+  for (std::size_t i = 0, k = 0; i < scan.size(); i += step, ++k) {
     const Eigen::Vector3f& p = scan.points[i];
     const float r2 = p.squaredNorm();
     if (!(r2 >= kMin2 && r2 <= kMax2)) continue;  // NaN fails too
     const float h = std::sqrt(p.x() * p.x() + p.y() * p.y());
-    if (i % stride == 0) all.push_back(h);
+    if (k % stride == 0) all.push_back(h);
     if (p.z() < kMinAbove) continue;
     const float az = fast_atan2(p.y(), p.x()) * static_cast<float>(kSectors / (2.0 * M_PI)) + kSectors / 2.0f;
     float& sector = horizon[static_cast<std::size_t>(std::clamp(static_cast<int>(az), 0, kSectors - 1))];

@@ -19,15 +19,19 @@ std::optional<std::string> KeyframeSubmapConfig::validate() const {
 
 bool needs_submap(const PointCloud& scan, const KeyframeSubmapConfig& config) {
   if (!config.enabled) return false;
-  std::array<int, 72> sectors{};  // 5 deg each, from every 8th return (a spinning lidar's scan costs little)
-  std::size_t finite = 0, sampled = 0;
-  for (const Eigen::Vector3f& p : scan.points) {
+  // Every scan is asked (the mode follows the sensor): every 7th point (odd: no aliasing with power-of-two ring
+  // counts), the returns estimated from them.
+  constexpr std::size_t kStride = 7;
+  std::array<int, 72> sectors{};  // 5 deg each
+  std::size_t sampled = 0;
+  for (std::size_t i = 0; i < scan.points.size(); i += kStride) {
+    const Eigen::Vector3f& p = scan.points[i];
     if (!p.allFinite() || p.squaredNorm() < 0.01f) continue;
-    if (finite++ % 8 != 0) continue;
     ++sampled;
     const float a = fast_atan2(p.y(), p.x()) * static_cast<float>(72.0 / (2.0 * M_PI)) + 36.0f;
     ++sectors[static_cast<std::size_t>(std::clamp(static_cast<int>(a), 0, 71))];
   }
+  const std::size_t finite = sampled * kStride;  // estimated returns
   if (finite < config.min_points) return true;
   // A sector counts when it holds at least 1 % of an even share: stray returns do not widen a cone.
   const double floor = 0.01 * static_cast<double>(sampled) / 72.0;
