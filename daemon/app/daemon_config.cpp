@@ -281,6 +281,7 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("map.cloud_max_range", c.engine.map_cloud.max_range);
   b.field("map.cloud_quantum", c.engine.map_cloud.quantum);
   b.field("map.max_buffered_keyframes", n.max_buffered_keyframes);
+  b.field("map.retry_period", n.map_retry_period);
   b.field("fleet.vehicle", n.fleet.vehicle);
   b.field("fleet.poll_interval", n.fleet.poll_interval);
   b.field("fleet.solve_every_keyframes", n.fleet.solve_every_keyframes);

@@ -24,6 +24,7 @@
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
 #include "map_writer.hpp"
+#include "republish_filter.hpp"
 #include "output_messages.hpp"
 #include "systemd_notify.hpp"
 #include "trajectory_publisher.hpp"
@@ -261,6 +262,7 @@ void fill_summary(RunSummary* summary, LoopdEngine& engine, InputHandler& h) {
 /// The map store of a run, when one is configured: opened before the engine, resumed into it, written by MapWriter.
 struct MapSession {
   std::unique_ptr<MapStore> store;
+  std::unique_ptr<RepublishFilter> republish;  ///< between the writer and the publisher
   std::unique_ptr<MapWriter> writer;
   bool holds_keyframes = false;
 };
@@ -312,9 +314,12 @@ MapStatus map_status(const MapSession& map, const NodeConfig& node, const Engine
     struct stat st {};
     if (::stat(f.c_str(), &st) == 0) m.bytes += static_cast<std::int64_t>(st.st_size);
   }
+  if (map.republish) m.events_not_republished = map.republish->not_republished();
   if (map.writer) {
     const MapWriterStats w = map.writer->stats();
     m.write_failures = w.failures;
+    m.write_retries = w.busy_retries + w.retries;
+    m.writes_buffered = w.buffered;
     m.last_error = w.last_error;
   }
   return m;
@@ -329,12 +334,15 @@ bool resume_from_map(MapSession& map, LoopdEngine& engine, bool skip_stored_keyf
     std::cerr << "loopd: " << r.error << std::endl;
     return false;
   }
+  if (map.republish) map.republish->expect(r.cut_off_published);
   if (!log_enabled(LogLevel::kInfo)) return true;
   std::fprintf(stderr, "loopd: map %s: %lld keyframes, %lld decisions, correction revision %lld restored in %.2f s", map.store->uri().c_str(),
                static_cast<long long>(r.keyframes), static_cast<long long>(r.decisions), static_cast<long long>(r.revision), r.seconds);
   if (r.dropped_undecided > 0)
     std::fprintf(stderr, "; %lld keyframe(s) cut off by the stop are processed again", static_cast<long long>(r.dropped_undecided));
   if (!r.corrections.empty()) std::fprintf(stderr, "; %zu correction(s) cut off by the stop made again", r.corrections.size());
+  if (!r.cut_off.empty())
+    std::fprintf(stderr, "; their %zu decision(s) keep their event ids and are not published again when decided the same", r.cut_off.size());
   std::fprintf(stderr, "\n");
   return true;
 }
@@ -457,6 +465,7 @@ std::optional<std::string> NodeConfig::validate() const {
   const bool postgres = map.uri.rfind("postgresql://", 0) == 0 || map.uri.rfind("postgres://", 0) == 0;
   if (fleet.vehicle >= 0 && !postgres) return "fleet.vehicle needs a shared map (map.path postgresql://...)";
   if (max_buffered_keyframes < 1) return "map.max_buffered_keyframes must be >= 1";
+  if (!(map_retry_period >= 0.1 && map_retry_period <= 600.0)) return "map.retry_period must be in [0.1, 600] s";
   return std::nullopt;
 }
 
@@ -500,10 +509,11 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   OutputSink sink(node, &lcm, nullptr, false);
   LocalCorrectionFilter fleet_output(sink);  // in a fleet the joint correction is published, not the detector's
   if (map.store) {
-    map.writer = std::make_unique<MapWriter>(*map.store, node.fleet.vehicle >= 0 ? static_cast<EngineSink&>(fleet_output) : sink, node.log_every_n,
-                                             fault_correction_delay_ms());
+    map.republish = std::make_unique<RepublishFilter>(node.fleet.vehicle >= 0 ? static_cast<EngineSink&>(fleet_output) : sink);
+    map.writer = std::make_unique<MapWriter>(*map.store, *map.republish, node.log_every_n, fault_correction_delay_ms());
     map.writer->set_session_origin(engine_config.detector.sensor, "live " + node.lcm_url);
     map.writer->set_max_buffered_keyframes(node.max_buffered_keyframes);
+    map.writer->set_retry_period(node.map_retry_period);
   }
   EngineSink* first_sink = map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink;
   const std::unique_ptr<FaultStallSink> stall = fault_stall_sink(*first_sink);
@@ -618,10 +628,11 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   OutputSink sink(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
   LocalCorrectionFilter fleet_output(sink);  // in a fleet the joint correction is published, not the detector's
   if (map.store) {
-    map.writer = std::make_unique<MapWriter>(*map.store, node.fleet.vehicle >= 0 ? static_cast<EngineSink&>(fleet_output) : sink, node.log_every_n,
-                                             fault_correction_delay_ms());
+    map.republish = std::make_unique<RepublishFilter>(node.fleet.vehicle >= 0 ? static_cast<EngineSink&>(fleet_output) : sink);
+    map.writer = std::make_unique<MapWriter>(*map.store, *map.republish, node.log_every_n, fault_correction_delay_ms());
     map.writer->set_session_origin(engine_config.detector.sensor, "replay " + input_log);
     map.writer->set_max_buffered_keyframes(node.max_buffered_keyframes);
+    map.writer->set_retry_period(node.map_retry_period);
   }
   LoopdEngine engine(config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
   if (map.store && node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));

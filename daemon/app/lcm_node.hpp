@@ -38,6 +38,7 @@ struct NodeConfig {
   TrajectoryPublisherConfig trajectory_output;
   FleetConfig fleet;                           ///< a fleet on one shared (postgresql://) map (fleet.*)
   std::int64_t max_buffered_keyframes = 5000;  ///< map.max_buffered_keyframes: writes kept while the map server is away
+  double map_retry_period = 2.0;               ///< map.retry_period [s]: the longest pause between tries of writes waiting for the map
   std::optional<std::string> validate() const;
 };
 

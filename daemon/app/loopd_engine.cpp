@@ -1,5 +1,6 @@
 #include "loopd_engine.hpp"
 
+#include "loopd/core/scan_fingerprint.hpp"
 #include "loopd/core/scene_scale.hpp"
 
 #include <algorithm>
@@ -138,7 +139,19 @@ void LoopdEngine::update_input_health() {
   stats_.sensor_changes = layout_.changes();
 }
 
-void LoopdEngine::tick(double wall_time_s) { handle_associated(associator_.poll(wall_time_s, !config_.block_when_full)); }
+void LoopdEngine::tick(double wall_time_s) {
+  handle_associated(associator_.poll(wall_time_s, !config_.block_when_full));
+  {
+    std::lock_guard<std::mutex> lock(sequence_mutex_);
+    if (sequencing_) return;  // busy: it calls the sink anyway
+    sequencing_ = true;       // the sink is this thread's until it gives the role back
+  }
+  sink_->on_idle();
+  // Keyframes that became ready meanwhile waited for the role: sequence them as complete() would have.
+  std::unique_lock<std::mutex> lock(sequence_mutex_);
+  sequencing_ = false;
+  sequence_ready(lock);
+}
 
 void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
   {
@@ -154,11 +167,19 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
       if (narrow) keep_for_submaps(std::move(s));
       continue;
     }
-    SessionKeys::Assigned assigned = session_keys_.assign(s.utime, s.pose.T_world_sensor);
+    const std::uint64_t fingerprint = scan_fingerprint(s.cloud);
+    SessionKeys::Assigned assigned = session_keys_.assign(s.utime, s.pose.T_world_sensor, fingerprint);
     if (!assigned.note.empty() && log_enabled(LogLevel::kInfo)) std::fprintf(stderr, "loopd: %s\n", assigned.note.c_str());
+    if (assigned.stored) ++keyframes_skipped_;
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      stats_.session = assigned.key.session;
+      stats_.sessions_opened = session_keys_.sessions_opened();
+      stats_.keyframes_skipped = keyframes_skipped_.load();
+    }
     if (assigned.stored) {
-      ++keyframes_skipped_;
       residual_since_keyframe_ = 0.0;
+      if (narrow) keep_for_submaps(std::move(s));  // the next keyframes' submaps hold it, as in the run that stored it
       continue;
     }
     Job job;
@@ -167,6 +188,7 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     job.input.utime = s.utime;
     job.input.T_odom_sensor = assigned.T_odom_sensor;
     job.input.residual = residual_since_keyframe_;
+    job.input.scan_fingerprint = fingerprint;
     residual_since_keyframe_ = 0.0;
     job.T_odom_scan = s.pose.T_world_sensor;
     if (narrow) {
@@ -184,7 +206,7 @@ ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes) {
   const bool thin = features_in_store_ && !config_.detector.correction.graph.use_plane_constraints;
   ResumeSummary r = resume_detector(store, detector_, thin ? KeyframeLoad::kDescriptor : KeyframeLoad::kFull);
   if (!r.ok) return r;
-  session_keys_.restore(r.keys, r.utimes, r.T_odom_newest, skip_stored_keyframes);
+  session_keys_.restore(r.stored, skip_stored_keyframes);
   for (const CorrectionOutput& c : r.corrections) sink_->on_correction(c);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
@@ -326,6 +348,10 @@ void LoopdEngine::complete(std::int64_t sequence, ReadyKeyframe keyframe) {
   ready_.emplace(sequence, std::move(keyframe));
   completed_.fetch_add(1);
   ready_backlog_.store(static_cast<int>(ready_.size()));
+  sequence_ready(lock);
+}
+
+void LoopdEngine::sequence_ready(std::unique_lock<std::mutex>& lock) {
   if (sequencing_) return;  // the thread that is sequencing takes it (checked and cleared under the same lock)
   sequencing_ = true;
   // The sequential stage runs strictly in keyframe order, so live and replay runs make the same decisions.

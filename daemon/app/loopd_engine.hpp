@@ -59,6 +59,9 @@ class EngineSink {
   virtual void on_correction(const CorrectionOutput& correction) = 0;
   /// @brief Every decision of `keyframe` (and its correction, if any) has been delivered.
   virtual void on_keyframe_decided(const KeyframeKey& /*keyframe*/) {}
+  /// @brief The sequential stage is idle (LoopdEngine::tick, live): a moment for background work such as retrying
+  /// buffered map writes. Never concurrent with the calls above.
+  virtual void on_idle() {}
 };
 
 /// @brief Counters reported in status_t.
@@ -85,6 +88,9 @@ struct EngineStats {
   std::int64_t keyframes_submapped = 0;   ///< keyframes whose cloud merged earlier scans (narrow or sparse sensor, submap.*)
   std::int64_t submap_scans = 0;          ///< earlier scans merged into those keyframes, in all
   std::int64_t deskew_skipped = 0;        ///< keyframe scans with times left as they were: poses do not cover the sweep, or too long a sweep
+  std::int64_t session = 0;               ///< the session this run's keyframes go to now
+  std::int64_t sessions_opened = 0;       ///< sessions this run opened (another drive, an odometry reset)
+  std::int64_t keyframes_skipped = 0;     ///< scans recognised as keyframes the map holds (a replay rerun) and skipped
   double deskew_max_correction = 0.0;     ///< [m] largest distance deskew moved a point
   std::string device;
 };
@@ -110,7 +116,8 @@ class LoopdEngine {
   bool push_scan(std::int64_t utime, PointCloud cloud, double arrival_s);
   /// @brief A decoded odometry pose. Returns false (counted) for a duplicate or stale utime.
   bool push_pose(const StampedPose& pose, double arrival_s);
-  /// @brief Lets waiting scans time out on the wall clock (live mode).
+  /// @brief Lets waiting scans time out on the wall clock (live mode); when the sequential stage is idle, the sink's
+  /// on_idle() runs (in its place, so never beside it).
   void tick(double wall_time_s);
   /// @brief End of input: associates what it can and waits until every keyframe has been processed.
   void finish();
@@ -171,6 +178,8 @@ class LoopdEngine {
     MapCloudBlob map_cloud;
   };
   void complete(std::int64_t sequence, ReadyKeyframe keyframe);
+  /// @brief Sequences the ready keyframes in order unless another thread is (`lock` holds sequence_mutex_).
+  void sequence_ready(std::unique_lock<std::mutex>& lock);
   void run_sequential(ReadyKeyframe& item);
 
   EngineConfig config_;

@@ -1,5 +1,7 @@
 #include "map_resume.hpp"
 
+#include <set>
+
 #include "loopd/core/stopwatch.hpp"
 #include "loopd/correction/loop_corrector.hpp"
 #include "map_records_convert.hpp"
@@ -57,6 +59,13 @@ std::optional<std::string> restore_decisions(const KeyframeKey& query, const std
 ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeLoad load) {
   Stopwatch sw;
   ResumeSummary summary;
+  // The decisions of the keyframes a stop cut off were committed, so they may have been published: read them before
+  // they go, to give the same candidates the same ids when they are decided again (and not publish them twice).
+  std::vector<LoopRecord> before;
+  if (auto e = read_loops(store, &before)) {
+    summary.error = *e;
+    return summary;
+  }
   const StoreResult<std::int64_t> dropped = store.drop_undecided();
   if (!dropped.ok()) {
     summary.error = dropped.status.message;
@@ -69,6 +78,16 @@ ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeL
   if (summary.error.empty())
     if (auto e = read_loops(store, &loops)) summary.error = *e;
   if (!summary.error.empty()) return summary;
+  if (before.size() != loops.size()) {
+    std::set<std::int64_t> kept;
+    for (const LoopRecord& r : loops) kept.insert(r.event_id);
+    for (const LoopRecord& r : before)
+      if (!kept.count(r.event_id)) {
+        summary.cut_off.push_back(to_loop_decision(r));
+        if (r.published) summary.cut_off_published.push_back(summary.cut_off.back());
+      }
+    detector.expect_decisions(summary.cut_off);
+  }
 
   std::size_t next_loop = 0;
   std::optional<std::string> failure;
@@ -81,9 +100,7 @@ ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeL
     }
     detector.restore_keyframe(k.record);
     ++summary.keyframes;
-    summary.utimes.push_back(k.record.utime);
-    summary.keys.push_back(k.record.key);
-    summary.T_odom_newest = k.record.T_odom_sensor;
+    summary.stored.push_back({k.record.key, k.record.utime, k.record.T_odom_sensor, k.record.scan_fingerprint});
     failure = restore_decisions(k.record.key, loops, &next_loop, stored, detector, summary);
   });
   if (!read.ok()) failure = read.message;

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "session_keys.hpp"
 #include "loopd/map/map_store.hpp"
 #include "loopd/pipeline/loop_detector.hpp"
 
@@ -12,14 +13,15 @@ namespace loopd {
 /// @brief What resume_detector() restored.
 struct ResumeSummary {
   bool ok = false;
-  std::string error;                                                ///< why the map could not be resumed (the map is then left as it was)
-  std::int64_t keyframes = 0;                                       ///< keyframes restored
-  std::int64_t decisions = 0;                                       ///< decisions restored
-  std::int64_t dropped_undecided = 0;                               ///< keyframes whose decisions were cut off by the stop (made again)
-  std::int64_t revision = 0;                                        ///< correction revision restored (0: none stored)
-  std::vector<std::int64_t> utimes;                                 ///< scan time of every restored keyframe, in order
-  std::vector<KeyframeKey> keys;                                    ///< key of every restored keyframe, in order
-  Eigen::Isometry3d T_odom_newest = Eigen::Isometry3d::Identity();  ///< odometry pose of the newest restored keyframe
+  std::string error;                   ///< why the map could not be resumed (the map is then left as it was)
+  std::int64_t keyframes = 0;          ///< keyframes restored
+  std::int64_t decisions = 0;          ///< decisions restored
+  std::int64_t dropped_undecided = 0;  ///< keyframes whose decisions were cut off by the stop (made again)
+  std::int64_t revision = 0;           ///< correction revision restored (0: none stored)
+  std::vector<StoredKeyframe> stored;  ///< every restored keyframe, in map order (SessionKeys recognises them in a replay)
+  /// Decisions removed with the keyframes the stop cut off: the detector gives the same candidates the same ids
+  /// again; of those that had reached the bus (cut_off_published), RepublishFilter keeps identical ones off it.
+  std::vector<LoopDecision> cut_off, cut_off_published;
   /// Corrections made again: accepted loops whose correction the stop cut off. The caller stores and publishes them.
   std::vector<CorrectionOutput> corrections;
   double seconds = 0.0;

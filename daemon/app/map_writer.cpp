@@ -12,8 +12,8 @@ namespace loopd {
 template <typename Write>
 StoreStatus MapWriter::retry_busy(Write&& write) {
   StoreStatus s = write();
-  for (int attempt = 0; s.code == StoreStatus::Code::kBusy && attempt < 3; ++attempt) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100 << (2 * attempt)));  // 0.1, 0.4, 1.6 s
+  for (int attempt = 0; s.code == StoreStatus::Code::kBusy && attempt < 2; ++attempt) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100 << (2 * attempt)));  // 0.1, 0.4 s; then the buffer's backoff
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++stats_.busy_retries;
@@ -23,16 +23,40 @@ StoreStatus MapWriter::retry_busy(Write&& write) {
   return s;
 }
 
-void MapWriter::failed(const std::string& what, const StoreStatus& status) {
-  const bool first = !stopped_;
+namespace {
+bool transient(const StoreStatus& s) { return s.code == StoreStatus::Code::kBusy || s.code == StoreStatus::Code::kUnavailable; }
+}  // namespace
+
+void MapWriter::give_up(const std::string& what, const StoreStatus& status) {
+  std::int64_t keyframes = 0, others = 0;
+  for (const Pending& p : pending_) (p.keyframe ? keyframes : others) += 1;
+  if (!pending_.empty() && pending_.front().what == what) (pending_.front().keyframe ? keyframes : others) -= 1;  // `what` itself
+  pending_.clear();
+  buffered_keyframes_ = 0;
   stopped_ = true;
+  const std::string lost = keyframes + others == 0 ? std::string()
+                                                   : "; lost with it: " + std::to_string(keyframes) + " buffered keyframes and " +
+                                                         std::to_string(others) + " other buffered writes";
+  std::int64_t n = 0;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    n = (stats_.failures += 1 + keyframes + others);
+    stats_.buffered = 0;
+    stats_.last_error = what + ": " + status.message + lost;
+  }
+  std::fprintf(stderr,
+               "loopd: MAP WRITE GIVEN UP: %s: %s%s; nothing more is written to the map until restart (it stays a consistent prefix "
+               "that a restart resumes from); detection goes on in memory, %lld writes not in the map so far\n",
+               what.c_str(), status.message.c_str(), lost.c_str(), static_cast<long long>(n));
+}
+
+void MapWriter::failed(const std::string& what, const StoreStatus& status) {
   std::int64_t n = 0;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     n = ++stats_.failures;
-    if (first) stats_.last_error = what + ": " + status.message;  // the write that stopped the map, and why
   }
-  if (n == 1 || (n - 1) % log_every_n_ == 0)
+  if ((n - 1) % log_every_n_ == 0)
     std::fprintf(stderr, "loopd: MAP WRITE FAILED (%lld so far): %s: %s; detection goes on in memory, what is not on disk is lost at exit\n",
                  static_cast<long long>(n), what.c_str(), status.message.c_str());
 }
@@ -104,6 +128,9 @@ void MapWriter::on_decision(const LoopDecision& decision) {
     return s;
   });
   next_.on_decision(decision);
+  // Published: a restart that decides it again does not publish it again (RepublishFilter).
+  const std::int64_t event_id = decision.event_id;
+  write("loop event " + std::to_string(event_id) + " published", [this, event_id] { return store_.mark_published(event_id); });
 }
 
 void MapWriter::on_correction(const CorrectionOutput& correction) {
@@ -139,47 +166,63 @@ void MapWriter::on_keyframe_decided(const KeyframeKey& keyframe) {
 
 void MapWriter::write(std::string what, std::function<StoreStatus()> transaction, bool keyframe) {
   if (stopped_) return failed(what, stopped_status());
-  if (!pending_.empty()) flush_pending(false);
+  if (!pending_.empty() && retry_due()) flush_pending(false);
+  if (stopped_) return failed(what, stopped_status());
   if (pending_.empty()) {
     const StoreStatus s = retry_busy(transaction);
     if (s.ok()) return;
-    if (s.code != StoreStatus::Code::kUnavailable) return failed(what, s);
-    unavailable(s);
+    if (!transient(s)) return give_up(what, s);
+    waiting(s);
   }
   if (keyframe && ++buffered_keyframes_ > max_buffered_keyframes_) {
     StoreStatus full;
     full.code = StoreStatus::Code::kIo;
-    full.message = "more than " + std::to_string(max_buffered_keyframes_) + " keyframes wait for the map server (map.max_buffered_keyframes)";
-    pending_.clear();
-    return failed(what, full);
+    full.message = "more than " + std::to_string(max_buffered_keyframes_) + " keyframes wait for the map (map.max_buffered_keyframes)";
+    return give_up(what, full);
   }
   pending_.push_back({std::move(what), std::move(transaction), keyframe});
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.buffered = static_cast<std::int64_t>(pending_.size());
 }
 
-void MapWriter::unavailable(const StoreStatus& status) {
-  if (!buffering_)
-    std::fprintf(stderr, "loopd: map server unavailable: %s; buffering the map's writes in memory until it is back\n", status.message.c_str());
+void MapWriter::waiting(const StoreStatus& status) {
+  if (!buffering_) {
+    const char* why = status.code == StoreStatus::Code::kBusy ? "map busy (another process holds its lock)" : "map server unavailable";
+    std::fprintf(stderr, "loopd: %s: %s; buffering the map's writes in memory, tried again every <= %.1f s\n", why, status.message.c_str(),
+                 static_cast<double>(retry_period_.count()) * 1e-3);
+    backoff_ = std::chrono::milliseconds(250);
+    next_retry_ = std::chrono::steady_clock::now() + backoff_;
+  }
   buffering_ = true;
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.last_error = status.message;
 }
 
+void MapWriter::on_idle() {
+  if (!pending_.empty() && !stopped_ && retry_due()) flush_pending(false);
+  next_.on_idle();
+}
+
 bool MapWriter::flush_pending(bool wait) {
-  // The store reconnects at most once a second: without `wait`, one try per call.
+  // The store reconnects at most once a second: without `wait`, one try per call, the next after the backoff.
   while (!pending_.empty() && !stopped_) {
     Pending& next = pending_.front();
     const StoreStatus s = retry_busy(next.transaction);
-    if (s.code == StoreStatus::Code::kUnavailable) {
+    if (transient(s)) {
+      {
+        std::lock_guard<std::mutex> lock(stats_mutex_);
+        ++stats_.retries;
+        stats_.last_error = s.message;
+      }
+      backoff_ = std::min(retry_period_, backoff_ * 2);
+      next_retry_ = std::chrono::steady_clock::now() + backoff_;
       if (!wait) return false;
       std::this_thread::sleep_for(std::chrono::milliseconds(250));
       if (std::chrono::steady_clock::now() >= flush_deadline_) return false;
       continue;
     }
     if (!s.ok()) {
-      failed(next.what, s);
-      pending_.clear();
+      give_up(next.what, s);
       break;
     }
     if (next.keyframe) --buffered_keyframes_;
@@ -188,8 +231,13 @@ bool MapWriter::flush_pending(bool wait) {
     ++stats_.flushed;
   }
   if (pending_.empty() && buffering_) {
-    std::fprintf(stderr, "loopd: map server back: every buffered write is stored\n");
     buffering_ = false;
+    backoff_ = std::chrono::milliseconds(250);
+    if (!stopped_) {
+      std::fprintf(stderr, "loopd: map back: every buffered write is stored\n");
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      stats_.last_error.clear();
+    }
   }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.buffered = static_cast<std::int64_t>(pending_.size());

@@ -18,22 +18,29 @@ namespace loopd {
 struct MapWriterStats {
   std::int64_t keyframes_written = 0, decisions_written = 0, corrections_written = 0;
   std::int64_t map_cloud_bytes = 0;  ///< encoded map clouds written with the keyframes
-  std::int64_t failures = 0;         ///< writes the store refused (the data stays in memory, detection goes on)
-  std::int64_t busy_retries = 0;     ///< writes tried again because another process held the map's lock
-  std::int64_t buffered = 0;         ///< writes waiting in memory for the map server (kUnavailable)
-  std::int64_t flushed = 0;          ///< buffered writes stored after the server came back
-  std::string last_error;            ///< the refused write that stopped the map's writes, and why
+  /// writes given up: refused for good (disk full, a record stored with other content), or past the buffer's bound;
+  /// what they carried stays in memory (detection goes on) and is not in the map
+  std::int64_t failures = 0;
+  std::int64_t busy_retries = 0;  ///< tries again at once because another process held the map's lock
+  std::int64_t retries = 0;       ///< tries again of buffered writes (the map busy or its server away), from the buffer
+  std::int64_t buffered = 0;      ///< writes waiting in memory for the map (busy or unavailable), in order
+  std::int64_t flushed = 0;       ///< buffered writes stored later
+  std::string last_error;         ///< the first write given up and why, then what was lost with it
 };
 
 /// @brief An EngineSink in front of another: each keyframe, decision and correction is committed to `store` first
-/// (so anything seen on the bus is on disk), then passed on. After a refused write the writer writes nothing more
-/// until restart, so the map stays a consistent prefix that a restart resumes from; what follows is counted as
-/// refused and logged (1st, (N+1)th, ...), and every result is still passed on: loopd keeps detecting in memory.
-/// A write the store answers kUnavailable (a map server restarting or out of reach) is kept in memory, in order, with
-/// every later write behind it; each later write first tries the buffer again, so the map catches up once the server
-/// is back, and flush() at exit waits for it. Past max_buffered_keyframes buffered keyframes it counts as refused.
-/// A write the store answers kBusy (another process, e.g. a backup, held the lock past busy_timeout_ms) is tried again
-/// after 0.1, 0.4 and 1.6 s before it counts as refused.
+/// (so anything seen on the bus is on disk), then passed on; every result is passed on whatever the store says, so
+/// loopd keeps detecting.
+/// - Transient failures never stop it: a write the store answers kBusy (another process holds the lock past
+///   busy_timeout_ms; tried again after 0.1 and 0.4 s first) or kUnavailable (a map server restarting or out of
+///   reach) is kept in memory, in order, with every later write behind it, and the buffer is tried again with a
+///   backoff of 0.25 s doubling to retry_period, at each later write and, while the engine is idle, from on_idle(): an
+///   idle vehicle's buffer reaches the map within retry_period of its coming back. flush() at exit waits for it.
+/// - A record already stored with the same content (a commit whose acknowledgement a lost connection took, retried)
+///   is success: the stores' put_* are idempotent.
+/// - A write refused for good (disk full, a record stored with other content), or a buffer past
+///   max_buffered_keyframes keyframes, is given up loudly: the log and status name it and what was lost with it, and
+///   the writer writes nothing more until restart, so the map stays a consistent prefix that a restart resumes from.
 class MapWriter : public EngineSink {
  public:
   /// @param correction_delay_ms fault injection for the crash test (LOOPD_FAULT_CORRECTION_DELAY_MS): widens the window
@@ -50,6 +57,10 @@ class MapWriter : public EngineSink {
   /// is left (at exit: what is still buffered then is lost and counted in the log).
   bool flush(double timeout_s);
   void set_max_buffered_keyframes(std::int64_t n) { max_buffered_keyframes_ = n; }
+  /// @brief [s] the longest pause between tries of a buffered write (the backoff's cap).
+  void set_retry_period(double seconds) { retry_period_ = std::chrono::milliseconds(static_cast<std::int64_t>(seconds * 1000.0)); }
+  /// @brief Tries the buffer again when its backoff has passed (the engine's idle hook, never beside the others).
+  void on_idle() override;
   /// @brief What a session this run opens is recorded with (lidar preset, "replay drive.lcmlog" / "live udpm://...").
   void set_session_origin(std::string sensor, std::string source) {
     sensor_ = std::move(sensor);
@@ -61,10 +72,15 @@ class MapWriter : public EngineSink {
   StoreStatus ensure_session(SessionId session, std::int64_t first_utime);
   /// @brief The sessions' alignment and anchoring of a correction, written into their rows (inside its transaction).
   StoreStatus put_alignments(const std::vector<SessionAlignment>& alignments);
+  /// @brief Gives `what` up (and with it every buffered write: they depend on it), loudly; stops writing.
+  void give_up(const std::string& what, const StoreStatus& status);
+  /// @brief A write after giving up: counted, logged 1st, (N+1)th, ...
   void failed(const std::string& what, const StoreStatus& status);
   /// @brief Runs `transaction` (one whole write), or buffers it behind earlier ones while the server is unavailable.
   void write(std::string what, std::function<StoreStatus()> transaction, bool keyframe = false);
-  void unavailable(const StoreStatus& status);
+  void waiting(const StoreStatus& status);
+  /// @brief The buffer's next try is due (or `wait`: at exit).
+  bool retry_due() const { return std::chrono::steady_clock::now() >= next_retry_; }
   bool flush_pending(bool wait);
   static StoreStatus stopped_status();
   /// @brief `write()`, tried again after a pause while the store answers kBusy; the last status.
@@ -87,7 +103,8 @@ class MapWriter : public EngineSink {
   std::deque<Pending> pending_;  ///< writes waiting for the server, in order
   std::int64_t buffered_keyframes_ = 0, max_buffered_keyframes_ = 5000;
   bool buffering_ = false;
-  std::chrono::steady_clock::time_point flush_deadline_{};
+  std::chrono::steady_clock::time_point flush_deadline_{}, next_retry_{};
+  std::chrono::milliseconds backoff_{250}, retry_period_{2000};
   mutable std::mutex stats_mutex_;
   MapWriterStats stats_;
 };

@@ -126,6 +126,12 @@ status_t make_status(std::int64_t utime, double uptime_s, const EngineStats& s, 
   m.map_error = map.last_error;
   m.keyframes_deskewed = s.keyframes_deskewed;
   m.deskew_skipped = s.deskew_skipped;
+  m.map_write_retries = map.write_retries;
+  m.map_writes_buffered = map.writes_buffered;
+  m.session = s.session;
+  m.sessions_opened = s.sessions_opened;
+  m.keyframes_skipped = s.keyframes_skipped;
+  m.events_not_republished = map.events_not_republished;
   return m;
 }
 

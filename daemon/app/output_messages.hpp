@@ -28,10 +28,13 @@ struct ChannelCounters {
 /// @brief status_t from the engine's and the channels' counters.
 /// @brief The map store's part of status_t.
 struct MapStatus {
-  std::string path;               ///< "" without a map
-  std::int64_t bytes = 0;         ///< on disk
-  std::int64_t cached_bytes = 0;  ///< keyframe features in memory
-  std::int64_t write_failures = 0;
+  std::string path;                  ///< "" without a map
+  std::int64_t bytes = 0;            ///< on disk
+  std::int64_t cached_bytes = 0;     ///< keyframe features in memory
+  std::int64_t write_failures = 0;   ///< writes given up (MapWriterStats::failures)
+  std::int64_t write_retries = 0;    ///< busy retries and tries again from the buffer
+  std::int64_t writes_buffered = 0;  ///< writes waiting for the map now
+  std::int64_t events_not_republished = 0;
   std::string last_error;
 };
 

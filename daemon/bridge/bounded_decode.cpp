@@ -222,6 +222,7 @@ void walk(WireWalker& w, const DecodeLimits& limits, const status_t*) {
   w.skip("map_bytes .. map_write_failures", 8, 3);
   w.string("map_error", limits.max_string);
   w.skip("keyframes_deskewed .. deskew_skipped", 8, 2);
+  w.skip("map_write_retries .. events_not_republished", 8, 6);
 }
 
 /// The bytes of a message of an older layout with today's fingerprint in place of its own (the fields that the

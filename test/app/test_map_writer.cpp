@@ -106,7 +106,9 @@ TEST_CASE("map writer: committed before passed on, and a full disk is counted wh
   fs::remove_all(dir);
 }
 
-TEST_CASE("map writer: a map locked by another process for a while is written after a pause; locked for good, it stops") {
+TEST_CASE(
+    "map writer: a map locked by another process for a while is written after a pause, locked for longer, its writes wait in memory and reach it "
+    "when it is free") {
   const fs::path dir = fs::temp_directory_path() / ("loopd_test_map_writer_busy_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -138,16 +140,47 @@ TEST_CASE("map writer: a map locked by another process for a while is written af
   CHECK(s.busy_retries >= 1);
   CHECK(s.busy_retries <= 3);
 
-  // Held past all retries (0.1 + 0.4 + 1.6 s): refused as busy, and the writer stops writing.
+  // Held past the inline retries (0.1 + 0.4 s): the decision waits in memory, in order, and is still passed on.
   REQUIRE(other.store->begin().ok());
+  writer.set_retry_period(0.5);
   writer.on_decision(decision(1, 0, true));
   s = writer.stats();
-  CHECK(s.failures == 1);
-  CHECK(s.busy_retries >= 4);
-  CHECK(s.last_error.find("loop event 1") == 0);
-  other.store->rollback();
+  CHECK(s.failures == 0);
+  CHECK(s.buffered == 2);  // the decision and its "published" mark
+  CHECK(s.busy_retries >= 3);
+  CHECK(s.last_error.find("lock") != std::string::npos);
+  CHECK(next.decisions == 1);
+  // A keyframe made meanwhile queues behind it (never before it: the map stays a consistent prefix).
   writer.on_keyframe(keyframe(1, 100), Eigen::Isometry3d::Identity(), nullptr);
-  CHECK(writer.stats().keyframes_written == 1);  // stopped: a consistent prefix stays on disk
-  CHECK(next.decisions == 1);                    // the decision was still passed on
+  CHECK(writer.stats().buffered == 3);
+  CHECK(writer.stats().keyframes_written == 1);
+  // Still locked after a few idle ticks: tried again with a backoff, nothing given up.
+  const auto idle_for = [&](double seconds) {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<int>(seconds * 1000));
+    while (std::chrono::steady_clock::now() < until) {
+      writer.on_idle();
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  };
+  idle_for(0.6);
+  s = writer.stats();
+  CHECK(s.failures == 0);
+  CHECK(s.buffered == 3);
+  CHECK(s.retries >= 1);
+  // The lock released: an idle vehicle's buffer reaches the map within the retry period, with nothing else written.
+  other.store->rollback();
+  idle_for(0.7);
+  s = writer.stats();
+  INFO(s.last_error);
+  CHECK(s.failures == 0);
+  CHECK(s.buffered == 0);
+  CHECK(s.flushed == 3);
+  CHECK(s.keyframes_written == 2);
+  CHECK(s.decisions_written == 1);
+  CHECK(s.last_error.empty());
+  bool stored = false;
+  store.for_each_loop(false, [&](LoopRecord&& r) { stored = stored || (r.event_id == 1 && r.published); });
+  CHECK(stored);
+  CHECK(store.check().ok());
   fs::remove_all(dir);
 }

@@ -53,7 +53,7 @@ TEST_CASE("point_cloud_t round-trips through LCM with rings and intensity") {
   CHECK(back.num_rings == 64);
 }
 
-TEST_CASE("point_cloud_t carries per-point times when the cloud has them; bad times are refused") {
+TEST_CASE("point_cloud_t carries per-point times when the cloud has them, bad times are refused") {
   PointCloud cloud;
   cloud.points = {{1.f, 2.f, 3.f}, {-4.f, 5.5f, 0.25f}, {0.f, 1.f, 0.f}};
   const point_cloud_t none = round_trip(to_message(cloud, 1, 1, "lidar"));
@@ -147,8 +147,20 @@ TEST_CASE("loop_event_t, trajectory_t and status_t round-trip") {
   map.bytes = 123456789;
   map.cached_bytes = 4096;
   map.write_failures = 2;
+  map.write_retries = 7;
+  map.writes_buffered = 3;
+  map.events_not_republished = 4;
   map.last_error = "disk full";
+  s.session = 5;
+  s.sessions_opened = 1;
+  s.keyframes_skipped = 40;
   const status_t sm = round_trip(make_status(1, 2.0, s, {}, 1024, map));
+  CHECK(sm.map_write_retries == 7);
+  CHECK(sm.map_writes_buffered == 3);
+  CHECK(sm.events_not_republished == 4);
+  CHECK(sm.session == 5);
+  CHECK(sm.sessions_opened == 1);
+  CHECK(sm.keyframes_skipped == 40);
   CHECK(sm.map_path == "/var/lib/loopd/map.db");
   CHECK(sm.map_bytes == 123456789);
   CHECK(sm.map_cached_bytes == 4096);

@@ -4,11 +4,19 @@
 // no loop between the sessions is taken; an odometry reset mid-drive: the new segment is re-anchored.
 #include <catch2/catch.hpp>
 
+#include <Eigen/Geometry>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <unistd.h>
 
+#include <loopd/loop_event_t.hpp>
+#include <loopd/pose_t.hpp>
+#include <loopd/status_t.hpp>
+
+#include "bounded_decode.hpp"
+#include "lcm_log.hpp"
 #include "support/run_command.hpp"
 
 namespace fs = std::filesystem;
@@ -35,6 +43,70 @@ void replay(const fs::path& drive, const fs::path& output, const fs::path& map) 
 
 nlohmann::json evaluate(const std::string& drives_and_results) {
   return nlohmann::json::parse(loopd::test::last_line(run(kBin + "/tools/loopd-eval/loopd-eval --quiet --json " + drives_and_results)));
+}
+
+/// Ground-truth sensor poses of a drive log by utime.
+std::map<std::int64_t, Eigen::Isometry3d> ground_truth(const fs::path& drive) {
+  std::map<std::int64_t, Eigen::Isometry3d> poses;
+  loopd::LogReader reader;
+  std::string error;
+  REQUIRE(reader.open(drive.string(), &error));
+  loopd::LogEvent e;
+  while (reader.next(&e)) {
+    loopd::pose_t p;
+    if (e.channel != "GROUND_TRUTH_POSE" || !loopd::decode_bounded(e.data.data(), e.data.size(), loopd::DecodeLimits{}, &p).ok) continue;
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::Quaterniond(p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3]).normalized().toRotationMatrix();
+    T.translation() = Eigen::Vector3d(p.position[0], p.position[1], p.position[2]);
+    poses[p.utime] = T;
+  }
+  return poses;
+}
+
+/// Accepted loops of an output log between sessions 1 (query) and 0 (match), and how many of them are within 0.5 m /
+/// 2 deg of ground truth: the query's pose from the second drive, the match's from the first (same scan times).
+struct InterSessionLoops {
+  int accepted = 0, correct = 0;
+};
+InterSessionLoops inter_session_loops(const fs::path& output, const fs::path& first_drive, const fs::path& second_drive) {
+  const auto first = ground_truth(first_drive), second = ground_truth(second_drive);
+  InterSessionLoops out;
+  loopd::LogReader reader;
+  std::string error;
+  REQUIRE(reader.open(output.string(), &error));
+  loopd::LogEvent e;
+  while (reader.next(&e)) {
+    loopd::loop_event_t m;
+    if (e.channel != "LOOP_EVENT" || !loopd::decode_bounded(e.data.data(), e.data.size(), loopd::DecodeLimits{}, &m).ok) continue;
+    if (m.status != loopd::loop_event_t::STATUS_ACCEPTED || m.query_session == m.match_session) continue;
+    ++out.accepted;
+    const auto q = second.find(m.query_utime), r = first.find(m.match_utime);
+    if (m.query_session != 1 || m.match_session != 0 || q == second.end() || r == first.end()) continue;
+    Eigen::Matrix4d T;
+    for (int i = 0; i < 16; ++i) T(i / 4, i % 4) = m.T_match_query[i];
+    const Eigen::Isometry3d error_T = (r->second.inverse() * q->second).inverse() * Eigen::Isometry3d(T);
+    const double deg = Eigen::AngleAxisd(error_T.linear()).angle() * 180.0 / M_PI;
+    if (error_T.translation().norm() < 0.5 && deg < 2.0) ++out.correct;
+  }
+  return out;
+}
+
+/// The last status_t of an output log (a replay's final one).
+loopd::status_t last_status(const fs::path& output) {
+  loopd::status_t last{};
+  loopd::LogReader reader;
+  std::string error;
+  REQUIRE(reader.open(output.string(), &error));
+  loopd::LogEvent e;
+  while (reader.next(&e)) {
+    loopd::status_t s;
+    if (e.channel == "LOOPD_STATUS" && loopd::decode_bounded(e.data.data(), e.data.size(), loopd::DecodeLimits{}, &s).ok) last = s;
+  }
+  return last;
+}
+
+nlohmann::json map_info(const fs::path& map) {
+  return nlohmann::json::parse(loopd::test::last_line(run(kBin + "/tools/loopd-map/loopd-map --json " + map.string() + " info")));
 }
 
 struct TempDir {
@@ -79,6 +151,58 @@ TEST_CASE("a second drive through the same town is aligned to the first one's ma
     CHECK(j["sessions"] == 2);
     CHECK(j["inter_session_loops_accepted"] == 0);
     CHECK(j["sessions_aligned"] == 0);
+  }
+}
+
+TEST_CASE("a second drive with the first one's scan times is its own session: the same town aligned, another town never") {
+  // Two vehicles' logs of the same hour, or a log replayed onto a map made from another: every keyframe is stored in
+  // a session of its own, never skipped as if the map held it and never stitched into the first drive's frame.
+  TempDir dir("loopd_same_time");
+  const fs::path& d = dir.path;
+  simulate(d / "s1.lcmlog", 3, 1, 400);
+  replay(d / "s1.lcmlog", d / "o1.lcmlog", d / "map.db");
+  fs::copy_file(d / "map.db", d / "other.db");
+  const nlohmann::json before = map_info(d / "map.db");
+  REQUIRE(before["sessions"] == 1);
+  const int first_keyframes = before["keyframes"].get<int>();
+
+  SECTION("same town from elsewhere, same scan times: aligned through prior-free loops") {
+    simulate(d / "s2.lcmlog", 3, 2, 300, "--same-day");
+    replay(d / "s2.lcmlog", d / "o2.lcmlog", d / "map.db");
+    const nlohmann::json after = map_info(d / "map.db");
+    INFO(after.dump(1));
+    REQUIRE(after["sessions"] == 2);
+    CHECK(after["session_list"][1]["first_utime"] == after["session_list"][0]["first_utime"]);  // the same scan times
+    CHECK(after["session_list"][1]["anchored"] == true);
+    CHECK(after["keyframes"].get<int>() - first_keyframes >= 120);  // 300 scans at 10 m/s, 1 m apart: every keyframe stored
+    const InterSessionLoops loops = inter_session_loops(d / "o2.lcmlog", d / "s1.lcmlog", d / "s2.lcmlog");
+    CHECK(loops.accepted >= 10);
+    CHECK(loops.correct == loops.accepted);
+    run(kBin + "/tools/loopd-map/loopd-map " + (d / "map.db").string() + " check");  // exit 0: the invariants hold
+  }
+
+  SECTION("another town, same scan times: its own session, no loop to the first") {
+    simulate(d / "x2.lcmlog", 4, 2, 300, "--same-day");
+    replay(d / "x2.lcmlog", d / "ox2.lcmlog", d / "other.db");
+    const nlohmann::json after = map_info(d / "other.db");
+    INFO(after.dump(1));
+    REQUIRE(after["sessions"] == 2);
+    CHECK(after["session_list"][1]["anchored"] == false);
+    CHECK(after["keyframes"].get<int>() - first_keyframes >= 120);
+    CHECK(inter_session_loops(d / "ox2.lcmlog", d / "s1.lcmlog", d / "x2.lcmlog").accepted == 0);
+    const loopd::status_t status = last_status(d / "ox2.lcmlog");  // status_t says so
+    CHECK(status.session == 1);
+    CHECK(status.sessions_opened == 1);
+    CHECK(status.keyframes_skipped == 0);
+    CHECK(status.map_write_failures == 0);
+    // Replayed again onto its map, it is recognised as stored and skipped: nothing new.
+    replay(d / "x2.lcmlog", d / "ox2b.lcmlog", d / "other.db");
+    CHECK(map_info(d / "other.db")["keyframes"] == after["keyframes"]);
+    CHECK(map_info(d / "other.db")["sessions"] == 2);
+    const loopd::status_t rerun = last_status(d / "ox2b.lcmlog");
+    CHECK(rerun.keyframes_skipped == after["keyframes"].get<int>() - first_keyframes);
+    CHECK(rerun.sessions_opened == 0);
+    CHECK(rerun.session == 1);
   }
 }
 

@@ -85,8 +85,12 @@ TEST_CASE("map clouds: written with the keyframe, read back by key, counted in t
   CHECK(stats.value.map_cloud_points == 1300);
   CHECK(stats.value.map_cloud_bytes > 0);
   CHECK(store->check().ok());
-  // A repeated key is refused and leaves the first keyframe's cloud as it was.
-  CHECK_FALSE(store->put_keyframe(keyframe(2, 100)).ok());
+  // A repeated key is success with the same keyframe (a retried write), refused with another, and either way the
+  // first keyframe's cloud stays as it was.
+  CHECK(store->put_keyframe(keyframe(2, 100)).ok());
+  MapKeyframe moved = keyframe(2, 100);
+  moved.record.T_odom_sensor.translation().x() += 0.5;
+  CHECK_FALSE(store->put_keyframe(moved).ok());
   CHECK(store->get_map_cloud({0, 2}).value.size() == 800);
   store.reset();
   auto reader = open_map(dir.file("map.db"), true);
@@ -109,7 +113,9 @@ TEST_CASE("map clouds: drop_undecided removes the clouds of the keyframes it rem
   CHECK(store->stats().value.map_clouds == 1);
 }
 
-TEST_CASE("map clouds: a schema 2 map gains the map_clouds table on a writable open; read-only it is refused with the versions") {
+TEST_CASE(
+    "map clouds: a schema 2 map gains the map_clouds table, scan fingerprints and published marks on a writable open, read-only it is refused with "
+    "the versions") {
   test::TempDir dir;
   const std::string path = dir.file("map.db");
   {
@@ -120,16 +126,37 @@ TEST_CASE("map clouds: a schema 2 map gains the map_clouds table on a writable o
   }
   sqlite3* db = nullptr;
   REQUIRE(sqlite3_open(path.c_str(), &db) == SQLITE_OK);
-  REQUIRE(sqlite3_exec(db, "DROP TABLE map_clouds; PRAGMA user_version = 2;", nullptr, nullptr, nullptr) == SQLITE_OK);
+  REQUIRE(sqlite3_exec(db,
+                       "DROP TABLE map_clouds; ALTER TABLE keyframes DROP COLUMN scan_fingerprint; ALTER TABLE loops DROP COLUMN published; PRAGMA "
+                       "user_version = 2;",
+                       nullptr, nullptr, nullptr) == SQLITE_OK);
   sqlite3_close(db);
   StoreStatus status;
   CHECK_FALSE(open_map(path, true, &status));
-  CHECK(status.message.find("schema version 2, this loopd reads 3") != std::string::npos);
+  CHECK(status.message.find("schema version 2, this loopd reads " + std::to_string(kSqliteMapSchemaVersion)) != std::string::npos);
   auto store = open_map(path, false, &status);
   INFO(status.message);
   REQUIRE(store);
   CHECK(store->get_map_cloud({0, 0}).status.code == Code::kNotFound);  // stored before map clouds
-  REQUIRE_OK(store->put_keyframe(keyframe(1, 50)));
+  MapKeyframe fingerprinted = keyframe(1, 50);
+  fingerprinted.record.scan_fingerprint = 0xfedcba9876543210ull;  // above INT64_MAX: stored as its two's complement
+  REQUIRE_OK(store->put_keyframe(fingerprinted));
   CHECK(store->get_map_cloud({0, 1}).value.size() == 50);
+  std::vector<std::uint64_t> fingerprints;
+  REQUIRE_OK(store->for_each_keyframe(0, KeyframeLoad::kPose, [&](MapKeyframe&& k) { fingerprints.push_back(k.record.scan_fingerprint); }));
+  CHECK(fingerprints == std::vector<std::uint64_t>{0, 0xfedcba9876543210ull});  // 0: stored before fingerprints
+  LoopRecord loop;
+  loop.event_id = 3;
+  loop.query = {0, 1};
+  loop.match = {0, 0};
+  loop.status = 2;
+  loop.stage = "gicp";
+  REQUIRE_OK(store->put_loop(loop));
+  bool published = true;
+  REQUIRE_OK(store->for_each_loop(false, [&](LoopRecord&& r) { published = r.published; }));
+  CHECK_FALSE(published);  // stored, not yet on the bus
+  REQUIRE_OK(store->mark_published(3));
+  REQUIRE_OK(store->for_each_loop(false, [&](LoopRecord&& r) { published = r.published; }));
+  CHECK(published);
   CHECK(store->check().ok());
 }

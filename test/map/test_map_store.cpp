@@ -155,7 +155,7 @@ TEST_CASE("map store: keyframes round-trip exactly at every load depth, per sess
   REQUIRE_OK(store->check());
 }
 
-TEST_CASE("map store: loop decisions and the correction round-trip exactly; the newest correction replaces the last") {
+TEST_CASE("map store: loop decisions and the correction round-trip exactly, the newest correction replaces the last") {
   const std::string backend = GENERATE("memory", "file");
   INFO("back end " << backend);
   TempDir dir;
@@ -163,9 +163,13 @@ TEST_CASE("map store: loop decisions and the correction round-trip exactly; the 
   fill(*store);
   const std::vector<LoopRecord> written = {loop(4, {0, 2}, {0, 0}, true), loop(5, {1, 2}, {0, 1}, false), loop(9, {1, 2}, {0, 2}, true)};
   for (const LoopRecord& l : written) REQUIRE_OK(store->put_loop(l));
-  const StoreStatus duplicate = store->put_loop(written[0]);
+  REQUIRE_OK(store->put_loop(written[0]));  // stored already with the same content: a retried write
+  LoopRecord other = written[0];
+  other.status = 0;
+  const StoreStatus duplicate = store->put_loop(other);
   CHECK(duplicate.code == Code::kInvalid);
   CHECK(duplicate.message.find("put loop event 4") != std::string::npos);
+  CHECK(duplicate.message.find("already stored with other content") != std::string::npos);
 
   const std::vector<LoopRecord> all = loops(*store, false);
   REQUIRE(all.size() == 3);
@@ -298,7 +302,7 @@ TEST_CASE("map store: a rolled back transaction leaves nothing, a committed one 
   CHECK(store->commit().code == Code::kInvalid);  // no transaction open
 }
 
-TEST_CASE("map store: two sessions with the same indices do not collide; a repeated key or an unknown session is refused") {
+TEST_CASE("map store: two sessions with the same indices do not collide, a repeated key or an unknown session is refused") {
   const std::string backend = GENERATE("memory", "file");
   INFO("back end " << backend);
   TempDir dir;
@@ -313,10 +317,13 @@ TEST_CASE("map store: two sessions with the same indices do not collide; a repea
   REQUIRE(all.size() == 2);
   CHECK(all[0].record.utime != 42);
   CHECK(all[1].record.utime == 42);
+  // The same keyframe again (a write retried after its commit went through) is success and stores nothing new; the
+  // key with other content is refused.
+  REQUIRE_OK(store->put_keyframe(other));
   const StoreStatus again = store->put_keyframe(keyframe(1, 0, nullptr));
   CHECK(again.code == Code::kInvalid);
   CHECK(again.message.find("put keyframe 1/0") != std::string::npos);
-  CHECK(again.message.find("UNIQUE") != std::string::npos);
+  CHECK(again.message.find("already stored with other content") != std::string::npos);
   const StoreStatus orphan = store->put_keyframe(keyframe(5, 0, nullptr));
   CHECK(orphan.code == Code::kInvalid);
   CHECK(orphan.message.find("FOREIGN KEY") != std::string::npos);
@@ -461,7 +468,7 @@ TEST_CASE("map store: a path that cannot be written gives kIo at open") {
   }
 }
 
-TEST_CASE("map store: a full disk (max_page_count) makes put_keyframe fail with kIo; what was stored stays readable") {
+TEST_CASE("map store: a full disk (max_page_count) makes put_keyframe fail with kIo, what was stored stays readable") {
   const std::string backend = GENERATE("memory", "file");
   INFO("back end " << backend);
   TempDir dir;

@@ -109,6 +109,8 @@ nlohmann::json result_json(const RunComparison& c, const RunLog& a, const RunLog
           {"max_pose_rotation_diff_deg", t.max_pose_rotation_diff_deg},
           {"malformed_a", a.malformed},
           {"malformed_b", b.malformed},
+          {"repeated_events_a", a.repeated_events},
+          {"repeated_events_b", b.repeated_events},
           {"problems_a", a.problems},
           {"problems_b", b.problems},
           {"tolerance_m", tol.translation_m},
@@ -119,6 +121,9 @@ nlohmann::json result_json(const RunComparison& c, const RunLog& a, const RunLog
 /// Damage a log reader skipped, on stderr: the comparison still runs on what could be read.
 void report_damage(const std::string& label, const RunLog& run) {
   if (!run.problems.empty()) std::cerr << "loopd-compare: warning: " << label << " " << run.problems << "\n";
+  if (run.repeated_events > 0)
+    std::cerr << "loopd-compare: note: " << label << " " << run.repeated_events
+              << " loop events repeat an earlier event_id: the later ones are compared\n";
   if (run.malformed > 0)
     std::cerr << "loopd-compare: warning: " << label << " " << run.malformed
               << " loop/trajectory events did not decode, first: " << run.first_malformed << "\n";

@@ -1,5 +1,6 @@
 #include "run_log.hpp"
 
+#include <unordered_map>
 #include <loopd/loop_event_t.hpp>
 #include <loopd/trajectory_t.hpp>
 
@@ -12,6 +13,7 @@ namespace {
 
 LoopDecision decision_of(const loop_event_t& msg) {
   LoopDecision d;
+  d.event_id = msg.event_id;
   d.query_id = msg.query_id;
   d.match_id = msg.match_id;
   d.status = msg.status;
@@ -47,6 +49,7 @@ bool read_run_log(const std::string& path, const CompareChannels& channels, RunL
   trajectory_t traj_msg;
   TrajectoryAssembly assembly;
   std::string why;
+  std::unordered_map<std::int64_t, std::size_t> event_index;  ///< event_id -> its place in run->decisions
   while (reader.next(&ev)) {
     ++run->events;
     if (ev.channel == channels.loop_event) {
@@ -54,7 +57,16 @@ bool read_run_log(const std::string& path, const CompareChannels& channels, RunL
         note_malformed(run, ev.channel, why);
         continue;
       }
-      run->decisions.push_back(decision_of(loop_msg));
+      // An event_id seen again replaces the earlier event (lcmtypes/loop_event_t.lcm: keyed by event_id, keep the last).
+      LoopDecision d = decision_of(loop_msg);
+      const auto seen = event_index.find(d.event_id);
+      if (seen != event_index.end()) {
+        run->decisions[seen->second] = std::move(d);
+        ++run->repeated_events;
+      } else {
+        event_index.emplace(d.event_id, run->decisions.size());
+        run->decisions.push_back(std::move(d));
+      }
     } else if (ev.channel == channels.trajectory) {
       if (!decode_any_trajectory(ev.data.data(), ev.data.size(), &traj_msg, &why)) {
         note_malformed(run, ev.channel, why);

@@ -14,6 +14,7 @@ struct CompareChannels {
 
 /// @brief One loop decision of a run (loop_event_t without its timing fields and publication utime).
 struct LoopDecision {
+  std::int64_t event_id = 0;
   std::int64_t query_id = 0;
   std::int64_t match_id = 0;
   std::int8_t status = 0;  ///< loop_event_t::STATUS_*
@@ -37,6 +38,7 @@ struct RunLog {
   std::int64_t last_revision = -1;         ///< revision number of `trajectory`, -1 when there is none
   std::int64_t events = 0;                 ///< LCM events read (all channels)
   std::int64_t malformed = 0;              ///< loop / trajectory events that did not decode
+  std::int64_t repeated_events = 0;        ///< loop events whose event_id came before (the later replaced the earlier)
   std::string first_malformed;             ///< channel, event number and reason of the first of them
   std::string problems;                    ///< LogReader's damage report, and an incomplete trajectory ("" when none)
 };

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <loopd/loop_event_t.hpp>
+#include <unordered_map>
 #include <loopd/point_cloud_t.hpp>
 #include <loopd/pose_t.hpp>
 #include <loopd/trajectory_t.hpp>
@@ -100,6 +101,7 @@ bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput
   loop_event_t loop_msg;
   trajectory_t traj_msg;
   TrajectoryAssembly assembly;
+  std::unordered_map<std::int64_t, std::size_t> event_index;  ///< this log's event_id -> its place in input->loops
   while (reader.next(&ev)) {
     ++stats->events;
     done += kEventHeaderBytes + static_cast<std::int64_t>(ev.channel.size() + ev.data.size());
@@ -126,7 +128,15 @@ bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput
       r.ms_gicp = loop_msg.ms_gicp;
       r.ms_hungarian = loop_msg.ms_hungarian;
       r.ms_total = loop_msg.ms_total;
-      input->loops.push_back(r);
+      // An event_id seen again replaces the earlier event (lcmtypes/loop_event_t.lcm: keyed by event_id, keep the last).
+      const auto seen = event_index.find(r.event_id);
+      if (seen != event_index.end()) {
+        input->loops[seen->second] = r;
+        ++stats->repeated_events;
+      } else {
+        event_index.emplace(r.event_id, input->loops.size());
+        input->loops.push_back(r);
+      }
       ++stats->loop_events;
     } else if (ev.channel == ch.trajectory) {
       if (!decode_any_trajectory(ev.data.data(), ev.data.size(), &traj_msg)) {
@@ -171,6 +181,7 @@ void LogReadStats::add(const LogReadStats& o) {
   trajectories += o.trajectories;
   malformed += o.malformed;
   skipped += o.skipped;
+  repeated_events += o.repeated_events;
 }
 
 void merge_drives(std::vector<EvalInput> drives, EvalInput* input) {

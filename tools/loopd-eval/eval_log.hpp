@@ -21,6 +21,7 @@ struct EvalChannels {
 struct LogReadStats {
   std::int64_t events = 0, scans = 0, ground_truth = 0, odometry = 0, loop_events = 0, trajectories = 0;
   std::int64_t malformed = 0, skipped = 0;  ///< undecodable events; events of other channels
+  std::int64_t repeated_events = 0;         ///< loop events whose event_id came before (the later replaced the earlier)
   std::int64_t trajectory_revision = -1;    ///< revision used as the corrected trajectory
   /// @brief Adds the counters of `o` (not trajectory_revision).
   void add(const LogReadStats& o);

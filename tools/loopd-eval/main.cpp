@@ -198,6 +198,7 @@ nlohmann::json report_json(const EvalReport& rep, const LogReadStats& drive_stat
   j["keyframes"] = rep.keyframe_utimes.size();
   j["scans"] = drive_stats.scans;
   j["loop_events"] = result_stats.loop_events;
+  j["repeated_loop_events"] = result_stats.repeated_events;
   j["trajectory_revision"] = result_stats.trajectory_revision;
   j["timings"] = {{"descriptor", timing_json(rep.ms_descriptor)},
                   {"fourpcs", timing_json(rep.ms_fourpcs)},
@@ -281,6 +282,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> warnings = rep.warnings;
   warnings.insert(warnings.end(), map_report.warnings.begin(), map_report.warnings.end());
   if (result_stats.loop_events == 0) warnings.push_back("the results log holds no loop events");
+  if (result_stats.repeated_events > 0)
+    warnings.push_back(std::to_string(result_stats.repeated_events) + " loop events repeat an earlier event_id: the later ones are used");
   if (drive_stats.malformed + result_stats.malformed > 0)
     warnings.push_back(std::to_string(drive_stats.malformed + result_stats.malformed) + " undecodable events skipped");
 

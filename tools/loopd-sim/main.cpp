@@ -90,6 +90,11 @@ void add_drive_options(CLI::App& app, loopd::DriveConfig* cfg, std::optional<int
                  "away; own odometry noise and drift (seeded by seed, K), odometry starting at identity (ground truth in session 1's "
                  "world frame), own scan noise and parked-car states; scans start K - 1 days after session 1's")
       ->capture_default_str();
+  app.add_flag("--same-day", cfg->same_day,
+               "session K >= 2 starts at session 1's scan times, not K - 1 days later (two vehicles' logs of the same hour)");
+  app.add_option("--start-utime", cfg->start_utime, "[us since the epoch] session 1's first scan")
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{4102444800000000}))
+      ->capture_default_str();
   app.add_option("--odometry-reset-at", *reset_at,
                  "scan N in [1, scans) where the odometry restarts (a restarted odometry process): T_odom_sensor(N) = identity, drift "
                  "from there; ground truth unchanged");

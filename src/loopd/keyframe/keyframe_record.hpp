@@ -52,6 +52,9 @@ struct KeyframeRecord {
   Eigen::Isometry3d T_odom_sensor = Eigen::Isometry3d::Identity();
   double residual = 0.0;   ///< odometry residual accumulated since the previous keyframe [m]
   double travelled = 0.0;  ///< [m] odometry path length from the session's first keyframe
+  /// scan_fingerprint() of the keyframe's raw scan: with the time and the pose, how a replay resumed on its map knows
+  /// the keyframes the map holds from those of another drive with the same times (0: not known, maps before it)
+  std::uint64_t scan_fingerprint = 0;
   std::shared_ptr<const KeyframeFeatures> features;
 };
 

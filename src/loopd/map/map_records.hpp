@@ -53,6 +53,7 @@ struct LoopRecord {
   std::string retrieval = "gate";                     ///< gate or global
   double place_distance = -1.0;                       ///< Scan Context distance of a global candidate
   bool confirmed = false;                             ///< a prior-free loop confirmed by the next keyframes (no robust kernel)
+  bool published = true;                              ///< it reached the bus (put_loop stores false, mark_published sets it)
 };
 
 /// @brief The correction state after a revision: enough to publish the corrected map again and resume correcting.

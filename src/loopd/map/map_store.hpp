@@ -108,8 +108,11 @@ class MapStore {
   /// processed again on resume). Returns how many keyframes were removed.
   virtual StoreResult<std::int64_t> drop_undecided() = 0;
 
-  /// @brief Adds a loop decision (its event id must be new).
+  /// @brief Adds a loop decision, not yet published. Its event id is new, or stored with the same content (a write
+  /// retried after its commit went through: success); stored with other content it is refused (kInvalid).
   virtual StoreStatus put_loop(const LoopRecord& loop) = 0;
+  /// @brief The decision `event_id` reached the bus (a restart that makes it again does not publish it again).
+  virtual StoreStatus mark_published(std::int64_t event_id) = 0;
   /// @brief Every decision in event order; accepted_only: only accepted loops.
   virtual StoreStatus for_each_loop(bool accepted_only, const std::function<void(LoopRecord&&)>& visit) = 0;
 

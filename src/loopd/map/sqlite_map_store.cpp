@@ -151,6 +151,7 @@ CREATE TABLE keyframes (
   descriptor BLOB,
   features BLOB,
   place BLOB,
+  scan_fingerprint INTEGER NOT NULL DEFAULT 0,
   PRIMARY KEY (session, idx)
 );
 CREATE INDEX keyframes_undecided ON keyframes (session, idx) WHERE decided = 0;
@@ -171,7 +172,8 @@ CREATE TABLE loops (
   information BLOB NOT NULL,
   retrieval TEXT NOT NULL DEFAULT 'gate',
   place_distance REAL NOT NULL DEFAULT -1,
-  confirmed INTEGER NOT NULL DEFAULT 0
+  confirmed INTEGER NOT NULL DEFAULT 0,
+  published INTEGER NOT NULL DEFAULT 1
 );
 CREATE INDEX loops_by_status ON loops (status, event_id);
 CREATE TABLE map_clouds (
@@ -198,7 +200,7 @@ CREATE TABLE correction (
 // the features blob's overflow pages).
 #define LOOPD_KEYFRAME_COLUMNS                                                                                                       \
   "session, idx, utime, T_odom_sensor, T_map_sensor, residual, travelled, has_features, features_ok, features_error, input_points, " \
-  "invalid_points, ms_descriptor, ms_prepare, descriptor, place"
+  "invalid_points, ms_descriptor, ms_prepare, descriptor, place, scan_fingerprint"
 
 /// @brief The SQLite map: one connection, its cached statements, and the file name for messages.
 class SqliteMapStore final : public MapStore {
@@ -222,6 +224,7 @@ class SqliteMapStore final : public MapStore {
   StoreResult<PreparedScan> get_prepared(const KeyframeKey& key) override;
   StoreResult<PointCloud> get_map_cloud(const KeyframeKey& key) override;
   StoreStatus mark_decided(const KeyframeKey& key) override;
+  StoreStatus mark_published(std::int64_t event_id) override;
   StoreResult<std::int64_t> drop_undecided() override;
   StoreStatus put_loop(const LoopRecord& loop) override;
   StoreStatus for_each_loop(bool accepted_only, const std::function<void(LoopRecord&&)>& visit) override;
@@ -246,6 +249,9 @@ class SqliteMapStore final : public MapStore {
     kLoops,
     kPutCorrection,
     kCorrection,
+    kStoredKeyframe,
+    kStoredLoop,
+    kMarkPublished,
     kCount
   };
 
@@ -263,7 +269,11 @@ class SqliteMapStore final : public MapStore {
     return rc == SQLITE_DONE ? StoreStatus{} : fail(rc, operation);
   }
   StoreResult<std::int64_t> scalar(const char* sql, const std::string& operation);
-  StoreStatus insert_keyframe(const MapKeyframe& keyframe);
+  StoreStatus insert_keyframe(const MapKeyframe& keyframe, bool* stored_before = nullptr);
+  /// A put that hit its own primary key: success when the stored row has the same content (a write retried after
+  /// its commit went through), else kInvalid naming what differs.
+  StoreStatus same_keyframe_stored(const KeyframeRecord& r, const StoreStatus& refused);
+  StoreStatus same_loop_stored(const LoopRecord& l, const StoreStatus& refused);
   StoreStatus upgrade_schema(std::int64_t from);
   StoreStatus read_keyframe(const Use& row, KeyframeLoad load, MapKeyframe& out) const;
   StoreStatus read_loop(const Use& row, LoopRecord& out) const;
@@ -283,7 +293,7 @@ const char* sql_of(int s) {
        "ON CONFLICT (id) DO UPDATE SET first_utime = excluded.first_utime, sensor = excluded.sensor, source = excluded.source, "
        "T_map_session = excluded.T_map_session, anchored = excluded.anchored"),
       "SELECT id, first_utime, sensor, source, T_map_session, anchored FROM sessions ORDER BY id",
-      "INSERT INTO keyframes (" LOOPD_KEYFRAME_COLUMNS ", features) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+      "INSERT INTO keyframes (" LOOPD_KEYFRAME_COLUMNS ", features) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
       "SELECT " LOOPD_KEYFRAME_COLUMNS " FROM keyframes WHERE ?1 IS NULL OR session = ?1 ORDER BY session, idx",
       "SELECT " LOOPD_KEYFRAME_COLUMNS ", features FROM keyframes WHERE ?1 IS NULL OR session = ?1 ORDER BY session, idx",
       "SELECT has_features, features FROM keyframes WHERE session = ? AND idx = ?",
@@ -291,11 +301,14 @@ const char* sql_of(int s) {
       "SELECT cloud FROM map_clouds WHERE session = ? AND idx = ?",
       "SELECT 1 FROM keyframes WHERE session = ? AND idx = ?",
       "UPDATE keyframes SET decided = 1 WHERE session = ? AND idx = ?",
-      "INSERT INTO loops VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+      "INSERT INTO loops VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 0)",
       "SELECT * FROM loops WHERE ?1 = 0 OR status = 1 ORDER BY event_id",
       ("INSERT OR REPLACE INTO correction (id, revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state) "
        "VALUES (1, ?, ?, ?, ?, ?, ?, ?)"),
       "SELECT revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state FROM correction WHERE id = 1",
+      "SELECT utime, T_odom_sensor, scan_fingerprint FROM keyframes WHERE session = ? AND idx = ?",
+      "SELECT query_session, query_idx, match_session, match_idx, status, T_match_query FROM loops WHERE event_id = ?",
+      "UPDATE loops SET published = 1 WHERE event_id = ?",
   };
   return kSql[s];
 }
@@ -342,12 +355,16 @@ StoreStatus SqliteMapStore::create_or_check_schema() {
 StoreStatus SqliteMapStore::upgrade_schema(std::int64_t from) {
   // 1 -> 2: the place descriptor (keyframes stored before it have none: not found by global retrieval) and how each
   // loop was found. 2 -> 3: the keyframes' map clouds (keyframes stored before have none: left out of the 3D map).
+  // 3 -> 4: the keyframes' scan fingerprints (0 before: a replay resume matches those by time and pose alone) and
+  // whether each decision reached the bus (decisions stored before were).
   const char* const steps[] = {
       "",
       ("ALTER TABLE keyframes ADD COLUMN place BLOB; ALTER TABLE loops ADD COLUMN retrieval TEXT NOT NULL DEFAULT 'gate'; "
        "ALTER TABLE loops ADD COLUMN place_distance REAL NOT NULL DEFAULT -1; ALTER TABLE loops ADD COLUMN confirmed INTEGER NOT NULL DEFAULT 0;"),
       ("CREATE TABLE map_clouds (session INTEGER NOT NULL, idx INTEGER NOT NULL, points INTEGER NOT NULL, cloud BLOB NOT NULL, "
        "PRIMARY KEY (session, idx), FOREIGN KEY (session, idx) REFERENCES keyframes (session, idx) ON DELETE CASCADE);"),
+      "ALTER TABLE keyframes ADD COLUMN scan_fingerprint INTEGER NOT NULL DEFAULT 0; ALTER TABLE loops ADD COLUMN published INTEGER NOT NULL DEFAULT "
+      "1;",
   };
   std::string sql = "BEGIN IMMEDIATE;";
   for (std::int64_t v = from; v < kSqliteMapSchemaVersion; ++v) sql += steps[v];
@@ -423,8 +440,9 @@ StoreStatus SqliteMapStore::put_keyframe(const MapKeyframe& keyframe) {
   if (!keyframe.map_cloud) return insert_keyframe(keyframe);
   // The keyframe and its map cloud together (a savepoint nests in the caller's transaction when there is one).
   if (auto st = exec("SAVEPOINT put_keyframe", "put keyframe"); !st.ok()) return st;
-  StoreStatus st = insert_keyframe(keyframe);
-  if (st.ok()) {
+  bool stored_before = false;
+  StoreStatus st = insert_keyframe(keyframe, &stored_before);
+  if (st.ok() && !stored_before) {
     const auto& blob = *keyframe.map_cloud;
     const auto points = static_cast<std::int64_t>(map_cloud_blob_points(blob.data(), blob.size()));
     Use use(stmt(kPutMapCloud));
@@ -439,7 +457,7 @@ StoreStatus SqliteMapStore::put_keyframe(const MapKeyframe& keyframe) {
   return exec("RELEASE put_keyframe", "put keyframe");
 }
 
-StoreStatus SqliteMapStore::insert_keyframe(const MapKeyframe& keyframe) {
+StoreStatus SqliteMapStore::insert_keyframe(const MapKeyframe& keyframe, bool* stored_before) {
   const KeyframeRecord& r = keyframe.record;
   const KeyframeFeatures* f = r.features.get();
   Use use(stmt(kPutKeyframe));
@@ -452,11 +470,30 @@ StoreStatus SqliteMapStore::insert_keyframe(const MapKeyframe& keyframe) {
       use.blob(encode_place_descriptor(f->place));
     else
       use.null();
-    use.blob(encode_features(*f));
+    use.i64(static_cast<std::int64_t>(r.scan_fingerprint)).blob(encode_features(*f));
   } else {
-    use.i64(0).text("").i64(0).i64(0).f64(0.0).f64(0.0).null().null().null();
+    use.i64(0).text("").i64(0).i64(0).f64(0.0).f64(0.0).null().null().i64(static_cast<std::int64_t>(r.scan_fingerprint)).null();
   }
-  return done(use, "put keyframe " + to_string(r.key));
+  const int rc = use.step();
+  if (rc == SQLITE_DONE) return {};
+  const StoreStatus refused = fail(rc, "put keyframe " + to_string(r.key));
+  if (rc != SQLITE_CONSTRAINT_PRIMARYKEY) return refused;
+  if (stored_before) *stored_before = true;  // with its map cloud: both went in one savepoint
+  return same_keyframe_stored(r, refused);
+}
+
+StoreStatus SqliteMapStore::same_keyframe_stored(const KeyframeRecord& r, const StoreStatus& refused) {
+  Use use(stmt(kStoredKeyframe));
+  use.i64(r.key.session).i64(r.key.index);
+  if (use.step() != SQLITE_ROW) return refused;
+  std::size_t n = 0;
+  const std::uint8_t* pose = use.blob_at(1, n);
+  const std::vector<std::uint8_t> mine = pose_blob(r.T_odom_sensor);
+  const bool same = use.i64_at(0) == r.utime && static_cast<std::uint64_t>(use.i64_at(2)) == r.scan_fingerprint && n == mine.size() &&
+                    std::memcmp(pose, mine.data(), n) == 0;
+  if (same) return {};
+  return {Code::kInvalid, "map " + path_ + ": put keyframe " + to_string(r.key) +
+                              ": already stored with other content (another scan time, pose or scan fingerprint)"};
 }
 
 StoreStatus SqliteMapStore::read_keyframe(const Use& row, KeyframeLoad load, MapKeyframe& out) const {
@@ -472,11 +509,12 @@ StoreStatus SqliteMapStore::read_keyframe(const Use& row, KeyframeLoad load, Map
   out.T_map_sensor = read_pose(map);
   r.residual = row.f64_at(5);
   r.travelled = row.f64_at(6);
+  r.scan_fingerprint = static_cast<std::uint64_t>(row.i64_at(16));
   if (load == KeyframeLoad::kPose || row.i64_at(7) == 0) return {};
   auto f = std::make_shared<KeyframeFeatures>();
   if (load == KeyframeLoad::kFull) {
     std::size_t n = 0;
-    const std::uint8_t* blob = row.blob_at(16, n);
+    const std::uint8_t* blob = row.blob_at(17, n);
     DecodedFeatures decoded = decode_features(blob, n);
     if (!decoded.ok) return corrupt("keyframe " + to_string(r.key) + ": " + decoded.error);
     *f = std::move(decoded.features);
@@ -606,7 +644,30 @@ StoreStatus SqliteMapStore::put_loop(const LoopRecord& l) {
   std::vector<std::uint8_t> information;
   append_doubles(information, l.information.data(), 36);
   use.blob(pose_blob(l.T_match_query)).blob(information).text(l.retrieval).f64(l.place_distance).i64(l.confirmed ? 1 : 0);
-  return done(use, "put loop event " + std::to_string(l.event_id));
+  const int rc = use.step();
+  if (rc == SQLITE_DONE) return {};
+  const StoreStatus refused = fail(rc, "put loop event " + std::to_string(l.event_id));
+  return rc == SQLITE_CONSTRAINT_PRIMARYKEY ? same_loop_stored(l, refused) : refused;
+}
+
+StoreStatus SqliteMapStore::mark_published(std::int64_t event_id) {
+  Use use(stmt(kMarkPublished));
+  use.i64(event_id);
+  return done(use, "mark loop event " + std::to_string(event_id) + " published");
+}
+
+StoreStatus SqliteMapStore::same_loop_stored(const LoopRecord& l, const StoreStatus& refused) {
+  Use use(stmt(kStoredLoop));
+  use.i64(l.event_id);
+  if (use.step() != SQLITE_ROW) return refused;
+  std::size_t n = 0;
+  const std::uint8_t* pose = use.blob_at(5, n);
+  const std::vector<std::uint8_t> mine = pose_blob(l.T_match_query);
+  const bool same = use.i64_at(0) == l.query.session && use.i64_at(1) == l.query.index && use.i64_at(2) == l.match.session &&
+                    use.i64_at(3) == l.match.index && use.i64_at(4) == l.status && n == mine.size() && std::memcmp(pose, mine.data(), n) == 0;
+  if (same) return {};
+  return {Code::kInvalid, "map " + path_ + ": put loop event " + std::to_string(l.event_id) +
+                              ": already stored with other content (other keyframes, status or transform)"};
 }
 
 StoreStatus SqliteMapStore::read_loop(const Use& row, LoopRecord& l) const {
@@ -632,6 +693,7 @@ StoreStatus SqliteMapStore::read_loop(const Use& row, LoopRecord& l) const {
   l.retrieval = row.text_at(20);
   l.place_distance = row.f64_at(21);
   l.confirmed = row.i64_at(22) != 0;
+  l.published = row.i64_at(23) != 0;
   return {};
 }
 

@@ -174,6 +174,7 @@ const KeyframeRecord& LoopDetector::place_keyframe(const KeyframeInput& input, s
   record.utime = input.utime;
   record.T_odom_sensor = input.T_odom_sensor;
   record.residual = input.residual;
+  record.scan_fingerprint = input.scan_fingerprint;
   record.travelled = travelled_;
   record.features = std::move(features);
   if (record.features && config_.correction.graph.use_plane_constraints) add_ground_plane(record, T_map_query);
@@ -220,7 +221,13 @@ void LoopDetector::add_ground_plane(const KeyframeRecord& keyframe, const Eigen:
 
 LoopDecision LoopDetector::make_decision(const KeyframeRecord& query, const RankedCandidate& candidate, double radius) {
   LoopDecision d;
-  d.event_id = next_event_id_++;
+  const auto expected = expected_event_ids_.find({query.utime, candidate.match->key});
+  if (expected != expected_event_ids_.end()) {
+    d.event_id = expected->second;  // decided before a stop cut its keyframe off: the same candidate, the same id
+    expected_event_ids_.erase(expected);
+  } else {
+    d.event_id = next_event_id_++;
+  }
   d.query = query.key;
   d.query_utime = query.utime;
   d.match = candidate.match->key;

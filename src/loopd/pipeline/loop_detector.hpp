@@ -1,6 +1,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -90,7 +91,8 @@ struct KeyframeInput {
   KeyframeKey key;         ///< the engine numbers a session's keyframes from 0
   std::int64_t utime = 0;  ///< scan time [us]
   Eigen::Isometry3d T_odom_sensor = Eigen::Isometry3d::Identity();
-  double residual = 0.0;  ///< odometry residual accumulated since the previous keyframe [m]
+  double residual = 0.0;               ///< odometry residual accumulated since the previous keyframe [m]
+  std::uint64_t scan_fingerprint = 0;  ///< KeyframeRecord::scan_fingerprint
 };
 
 /// @brief A corrected trajectory, mirrored by trajectory_t.
@@ -153,6 +155,10 @@ class LoopDetector {
   std::optional<CorrectionOutput> reapply_loop(const LoopDecision& decision, const Information6d& information);
   /// @brief The corrector's resumable state (what the engine stores with each correction).
   CorrectorResumeState corrector_state() const { return corrector_.resume_state(); }
+  /// @brief Decisions a stop cut off (published, then removed from the map with their undecided query keyframe): when
+  /// the same candidate (query scan time, match keyframe) is decided again it takes the same event id, and new ones
+  /// number after every id published, so an event id never names two candidates.
+  void expect_decisions(const std::vector<LoopDecision>& cut_off);
 
   /// @brief A keyframe of another vehicle's session (a fleet sharing one map), as that vehicle stored it: a candidate
   /// for this vehicle's prior-free loops, never in this pose sequence (pose in its own session's odometry frame). A
@@ -244,6 +250,7 @@ class LoopDetector {
   double travelled_ = 0.0;
   double travelled_at_last_loop_ = 0.0;
   std::int64_t next_event_id_ = 0;
+  std::map<std::pair<std::int64_t, KeyframeKey>, std::int64_t> expected_event_ids_;  ///< (query utime, match) -> id
   std::int64_t revision_ = 0;
   std::int64_t loops_accepted_ = 0;
   std::int64_t loops_rejected_ = 0;

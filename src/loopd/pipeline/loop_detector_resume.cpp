@@ -11,9 +11,17 @@ void LoopDetector::restore_keyframe(const KeyframeRecord& record) {
   input.utime = record.utime;
   input.T_odom_sensor = record.T_odom_sensor;
   input.residual = record.residual;
+  input.scan_fingerprint = record.scan_fingerprint;
   const Eigen::Isometry3d T_map_query = enter_pose_sequence(input);
   const KeyframeRecord& placed = place_keyframe(input, std::move(features), T_map_query);
   gate_.add({placed.key, T_map_query.translation(), travelled_});
+}
+
+void LoopDetector::expect_decisions(const std::vector<LoopDecision>& cut_off) {
+  for (const LoopDecision& d : cut_off) {
+    expected_event_ids_[{d.query_utime, d.match}] = d.event_id;
+    next_event_id_ = std::max(next_event_id_, d.event_id + 1);
+  }
 }
 
 LoopConstraint LoopDetector::count_restored(const LoopDecision& decision, const Information6d& information) {

@@ -231,7 +231,7 @@ Drive make_drive(const DriveConfig& config) {
     d.car_visit_offset = (c.session - 1) << 20;
   }
   const double step = c.speed / c.rate_hz;
-  const std::int64_t start_utime = c.start_utime + std::int64_t{86400000000} * (c.session - 1);
+  const std::int64_t start_utime = c.start_utime + (c.same_day ? 0 : std::int64_t{86400000000} * (c.session - 1));
 
   // Ground truth at each scan's stamp.
   d.scans.resize(static_cast<std::size_t>(c.num_scans));

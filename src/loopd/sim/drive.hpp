@@ -35,7 +35,7 @@ namespace loopd {
 ///    at its first scan, while ground truth stays in session 1's world frame;
 ///  - its own scan noise and vegetation (scan seeds hashed with K) and parked-car states (cars on visit v show the
 ///    state of visit v + (K - 1) * 2^20: the movable cars moved between sessions);
-///  - its scans start (K - 1) days after start_utime.
+///  - its scans start (K - 1) days after start_utime (at start_utime with same_day).
 /// odometry_reset_at = N (any session) restarts the odometry at scan N as a restarted odometry process would:
 /// T_odom_sensor(N) = I, drift from there; ground truth, noise draws and every other scan's step are unchanged.
 struct DriveConfig {
@@ -60,6 +60,7 @@ struct DriveConfig {
   double corner_radius = 9.0;                   ///< [m] corner rounding at intersections
   std::int64_t start_utime = 1700000000000000;  ///< [us] session 1's first scan; session K's is (K - 1) days later
   int session = 1;                              ///< 1 = the reference drive; >= 2: another day's drive (above), <= 1000
+  bool same_day = false;                        ///< session K's scans start at start_utime too (two vehicles of one hour)
   std::optional<int> odometry_reset_at;         ///< scan in [1, num_scans) where the odometry restarts from identity
   // Odometry drift (applied to ground-truth increments).
   double heading_bias_deg_per_100m = 0.5;  ///< systematic yaw drift [deg / 100 m]

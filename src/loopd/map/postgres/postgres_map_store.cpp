@@ -4,9 +4,11 @@
 
 #include <climits>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <map>
+#include <stdexcept>
 
 #include "loopd/map/keyframe_codec.hpp"
 #include "loopd/map/map_cloud_codec.hpp"
@@ -69,6 +71,7 @@ class PostgresMapStore final : public MapStore, public SharedMap {
   StoreResult<PreparedScan> get_prepared(const KeyframeKey& key) override;
   StoreResult<PointCloud> get_map_cloud(const KeyframeKey& key) override;
   StoreStatus mark_decided(const KeyframeKey& key) override;
+  StoreStatus mark_published(std::int64_t event_id) override;
   StoreResult<std::int64_t> drop_undecided() override;
   StoreStatus put_loop(const LoopRecord& loop) override;
   StoreStatus for_each_loop(bool accepted_only, const std::function<void(LoopRecord&&)>& visit) override;
@@ -92,6 +95,8 @@ class PostgresMapStore final : public MapStore, public SharedMap {
   StoreStatus create_or_check_schema();
   StoreStatus read_keyframe(const pqxx::row& row, KeyframeLoad load, MapKeyframe& out) const;
   StoreStatus read_loop(const pqxx::row& row, LoopRecord& out) const;
+  void same_keyframe_stored(Tx& t, const KeyframeRecord& r);
+  void same_loop_stored(Tx& t, const LoopRecord& l);
   StoreStatus keyframes_where(const std::string& operation, KeyframeLoad load, const std::string& where,
                               const std::function<void(MapKeyframe&&)>& visit);
   StoreStatus loops_where(const std::string& operation, const std::function<pqxx::result(Tx&)>& query,
@@ -117,6 +122,15 @@ StoreStatus PostgresMapStore::create_or_check_schema() {
     if (exists[0][0].as<bool>()) {
       const pqxx::result v = t.exec("SELECT value FROM loopd_meta WHERE key = 'schema_version'");
       if (!v.empty()) version = v[0][0].as<std::string>();
+      // An older schema this build knows is upgraded in place (under the schema lock; read-only: refused below).
+      const int known = static_cast<int>(sizeof(postgres::kSchemaUpgrades) / sizeof(postgres::kSchemaUpgrades[0])) + 1;
+      int from = 0;
+      if (version) from = std::atoi(version->c_str());
+      if (!read_only_ && from >= 1 && from < kPostgresMapSchemaVersion && kPostgresMapSchemaVersion <= known) {
+        for (int step = from; step < kPostgresMapSchemaVersion; ++step) t.exec(postgres::kSchemaUpgrades[step - 1]);
+        t.exec_params("UPDATE loopd_meta SET value = $1 WHERE key = 'schema_version'", std::to_string(kPostgresMapSchemaVersion));
+        version = std::to_string(kPostgresMapSchemaVersion);
+      }
       return;
     }
     if (read_only_) return;
@@ -179,12 +193,15 @@ StoreStatus PostgresMapStore::put_keyframe(const MapKeyframe& keyframe) {
   const std::vector<std::uint8_t> place = f && f->place.ok ? encode_place_descriptor(f->place) : std::vector<std::uint8_t>{};
   const std::vector<std::uint8_t> features = f ? encode_features(*f) : std::vector<std::uint8_t>{};
   return connection_.run("put keyframe " + to_string(r.key), [&](Tx& t) {
-    t.exec_params("INSERT INTO keyframes (" + std::string(postgres::kKeyframeColumns) +
-                      ", features) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17)",
-                  r.key.session, r.key.index, r.utime, bin(blobs::pose_blob(r.T_odom_sensor)), bin(blobs::pose_blob(keyframe.T_map_sensor)),
-                  f64_text(r.residual), f64_text(r.travelled), f != nullptr, f && f->ok, f ? f->error : std::string(),
-                  static_cast<std::int64_t>(f ? f->input_points : 0), static_cast<std::int64_t>(f ? f->invalid_points : 0),
-                  f64_text(f ? f->ms_descriptor : 0.0), f64_text(f ? f->ms_prepare : 0.0), bin(descriptor), bin(place), bin(features));
+    const pqxx::result inserted = t.exec_params(
+        "INSERT INTO keyframes (" + std::string(postgres::kKeyframeColumns) +
+            ", features) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18) ON CONFLICT DO NOTHING",
+        r.key.session, r.key.index, r.utime, bin(blobs::pose_blob(r.T_odom_sensor)), bin(blobs::pose_blob(keyframe.T_map_sensor)),
+        f64_text(r.residual), f64_text(r.travelled), f != nullptr, f && f->ok, f ? f->error : std::string(),
+        static_cast<std::int64_t>(f ? f->input_points : 0), static_cast<std::int64_t>(f ? f->invalid_points : 0),
+        f64_text(f ? f->ms_descriptor : 0.0), f64_text(f ? f->ms_prepare : 0.0), bin(descriptor), bin(place),
+        static_cast<std::int64_t>(r.scan_fingerprint), bin(features));
+    if (inserted.affected_rows() == 0) return same_keyframe_stored(t, r);  // with its map cloud: one transaction
     if (keyframe.map_cloud) {
       const std::vector<std::uint8_t>& blob = *keyframe.map_cloud;
       t.exec_params("INSERT INTO map_clouds VALUES ($1, $2, $3, $4)", r.key.session, r.key.index,
@@ -204,10 +221,11 @@ StoreStatus PostgresMapStore::read_keyframe(const pqxx::row& row, KeyframeLoad l
   out.T_map_sensor = blobs::read_pose(map.data());
   r.residual = f64(row[5]);
   r.travelled = f64(row[6]);
+  r.scan_fingerprint = static_cast<std::uint64_t>(row[16].as<std::int64_t>());
   if (load == KeyframeLoad::kPose || !row[7].as<bool>()) return {};
   auto f = std::make_shared<KeyframeFeatures>();
   if (load == KeyframeLoad::kFull) {
-    const std::vector<std::uint8_t> blob = bytes_of(row[16]);
+    const std::vector<std::uint8_t> blob = bytes_of(row[17]);
     DecodedFeatures decoded = decode_features(blob);
     if (!decoded.ok) return corrupt("keyframe " + to_string(r.key) + ": " + decoded.error);
     *f = std::move(decoded.features);
@@ -348,13 +366,43 @@ StoreStatus PostgresMapStore::put_loop(const LoopRecord& l) {
   std::vector<std::uint8_t> information;
   blobs::append_doubles(information, l.information.data(), 36);
   return connection_.run("put loop event " + std::to_string(l.event_id), [&](Tx& t) {
-    t.exec_params("INSERT INTO loops (vehicle, " + std::string(postgres::kLoopColumns) +
-                      ") VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20, $21, $22, $23, $24)",
-                  writer(), l.event_id, l.query.session, l.query.index, l.match.session, l.match.index, l.query_utime, l.match_utime, l.status,
-                  l.stage, l.reason, f64_text(l.gate_distance), f64_text(l.gate_radius), f64_text(l.descriptor_distance), f64_text(l.lcp_fraction),
-                  f64_text(l.icp_residual), f64_text(l.icp_fitness), f64_text(l.hungarian_consistency), f64_text(l.degeneracy),
-                  bin(blobs::pose_blob(l.T_match_query)), bin(information), l.retrieval, f64_text(l.place_distance), l.confirmed);
+    const pqxx::result inserted = t.exec_params(
+        "INSERT INTO loops (vehicle, " + std::string(postgres::kLoopColumns) +
+            ") VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20, $21, $22, $23, $24, false) "
+            "ON CONFLICT DO NOTHING",
+        writer(), l.event_id, l.query.session, l.query.index, l.match.session, l.match.index, l.query_utime, l.match_utime, l.status, l.stage,
+        l.reason, f64_text(l.gate_distance), f64_text(l.gate_radius), f64_text(l.descriptor_distance), f64_text(l.lcp_fraction),
+        f64_text(l.icp_residual), f64_text(l.icp_fitness), f64_text(l.hungarian_consistency), f64_text(l.degeneracy),
+        bin(blobs::pose_blob(l.T_match_query)), bin(information), l.retrieval, f64_text(l.place_distance), l.confirmed);
+    if (inserted.affected_rows() == 0) same_loop_stored(t, l);
   });
+}
+
+StoreStatus PostgresMapStore::mark_published(std::int64_t event_id) {
+  return connection_.run("mark loop event " + std::to_string(event_id) + " published",
+                         [&](Tx& t) { t.exec_params("UPDATE loops SET published = true WHERE vehicle = $1 AND event_id = $2", writer(), event_id); });
+}
+
+// A put that met its own key: a write retried after its COMMIT reached the server but the acknowledgement did not
+// (the connection lost). The same content is success; other content is refused (and aborts an open transaction).
+void PostgresMapStore::same_keyframe_stored(Tx& t, const KeyframeRecord& r) {
+  const pqxx::result row =
+      t.exec_params("SELECT utime, T_odom_sensor, scan_fingerprint FROM keyframes WHERE session = $1 AND idx = $2", r.key.session, r.key.index);
+  if (!row.empty() && row[0][0].as<std::int64_t>() == r.utime && bytes_of(row[0][1]) == blobs::pose_blob(r.T_odom_sensor) &&
+      static_cast<std::uint64_t>(row[0][2].as<std::int64_t>()) == r.scan_fingerprint)
+    return;
+  throw std::runtime_error("already stored with other content (another scan time, pose or scan fingerprint)");
+}
+
+void PostgresMapStore::same_loop_stored(Tx& t, const LoopRecord& l) {
+  const pqxx::result row = t.exec_params(
+      "SELECT query_session, query_idx, match_session, match_idx, status, T_match_query FROM loops WHERE vehicle = $1 AND event_id = $2", writer(),
+      l.event_id);
+  if (!row.empty() && row[0][0].as<std::int64_t>() == l.query.session && row[0][1].as<std::int64_t>() == l.query.index &&
+      row[0][2].as<std::int64_t>() == l.match.session && row[0][3].as<std::int64_t>() == l.match.index && row[0][4].as<int>() == l.status &&
+      bytes_of(row[0][5]) == blobs::pose_blob(l.T_match_query))
+    return;
+  throw std::runtime_error("already stored with other content (other keyframes, status or transform)");
 }
 
 StoreStatus PostgresMapStore::read_loop(const pqxx::row& row, LoopRecord& l) const {
@@ -377,6 +425,7 @@ StoreStatus PostgresMapStore::read_loop(const pqxx::row& row, LoopRecord& l) con
   l.retrieval = row[20].as<std::string>();
   l.place_distance = f64(row[21]);
   l.confirmed = row[22].as<bool>();
+  l.published = row[23].as<bool>();
   return {};
 }
 

@@ -17,6 +17,7 @@ CREATE TABLE keyframes (
   features_error text NOT NULL, input_points bigint NOT NULL, invalid_points bigint NOT NULL,
   ms_descriptor float8 NOT NULL, ms_prepare float8 NOT NULL, descriptor bytea NOT NULL, place bytea NOT NULL,
   features bytea NOT NULL, stored_at timestamptz NOT NULL DEFAULT clock_timestamp(),
+  scan_fingerprint bigint NOT NULL DEFAULT 0,
   PRIMARY KEY (session, idx));
 CREATE TABLE map_clouds (
   session integer NOT NULL, idx bigint NOT NULL, points bigint NOT NULL, cloud bytea NOT NULL,
@@ -27,7 +28,7 @@ CREATE TABLE loops (
   status integer NOT NULL, stage text NOT NULL, reason text NOT NULL, gate_distance float8, gate_radius float8,
   descriptor_distance float8, lcp_fraction float8, icp_residual float8, icp_fitness float8,
   hungarian_consistency float8, degeneracy float8, T_match_query bytea NOT NULL, information bytea NOT NULL,
-  retrieval text NOT NULL, place_distance float8, confirmed boolean NOT NULL,
+  retrieval text NOT NULL, place_distance float8, confirmed boolean NOT NULL, published boolean NOT NULL DEFAULT true,
   stored_at timestamptz NOT NULL DEFAULT clock_timestamp(), PRIMARY KEY (vehicle, event_id));
 CREATE INDEX loops_query ON loops (query_session, query_idx);
 CREATE TABLE correction (
@@ -42,12 +43,19 @@ CREATE TABLE fleet_corrections (
 /// Keyframe columns of the bulk reads (features is read only at KeyframeLoad::kFull).
 inline constexpr const char* kKeyframeColumns =
     "session, idx, utime, T_odom_sensor, T_map_sensor, residual, travelled, has_features, features_ok, features_error, "
-    "input_points, invalid_points, ms_descriptor, ms_prepare, descriptor, place";
+    "input_points, invalid_points, ms_descriptor, ms_prepare, descriptor, place, scan_fingerprint";
+
+/// Schema upgrades, from version i + 1 to i + 2 (run under the schema lock, with the version row updated).
+/// 1 -> 2: the keyframes' scan fingerprints (0 before: a replay resume matches those by time and pose alone).
+inline constexpr const char* kSchemaUpgrades[] = {
+    "ALTER TABLE keyframes ADD COLUMN scan_fingerprint bigint NOT NULL DEFAULT 0; "
+    "ALTER TABLE loops ADD COLUMN published boolean NOT NULL DEFAULT true",
+};
 
 inline constexpr const char* kLoopColumns =
     "event_id, query_session, query_idx, match_session, match_idx, query_utime, match_utime, status, stage, reason, "
     "gate_distance, gate_radius, descriptor_distance, lcp_fraction, icp_residual, icp_fitness, hungarian_consistency, "
-    "degeneracy, T_match_query, information, retrieval, place_distance, confirmed";
+    "degeneracy, T_match_query, information, retrieval, place_distance, confirmed, published";
 
 /// Advisory lock keys: creating the schema, the solver role, numbering joint corrections.
 inline constexpr long long kSchemaLock = 0x6c6f6f7064000001LL;
