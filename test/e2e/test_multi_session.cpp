@@ -17,6 +17,7 @@
 
 #include "bounded_decode.hpp"
 #include "lcm_log.hpp"
+#include "support/postgres_server.hpp"
 #include "support/run_command.hpp"
 
 namespace fs = std::filesystem;
@@ -37,8 +38,8 @@ void simulate(const fs::path& out, int seed, int session, int scans, const std::
       std::to_string(session) + " --scans " + std::to_string(scans) + " " + extra + " --out " + out.string());
 }
 
-void replay(const fs::path& drive, const fs::path& output, const fs::path& map) {
-  run(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + drive.string() + " --output " + output.string() + " --map " + map.string());
+void replay(const fs::path& drive, const fs::path& output, const std::string& map) {
+  run(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + drive.string() + " --output " + output.string() + " --map '" + map + "'");
 }
 
 nlohmann::json evaluate(const std::string& drives_and_results) {
@@ -105,8 +106,8 @@ loopd::status_t last_status(const fs::path& output) {
   return last;
 }
 
-nlohmann::json map_info(const fs::path& map) {
-  return nlohmann::json::parse(loopd::test::last_line(run(kBin + "/tools/loopd-map/loopd-map --json " + map.string() + " info")));
+nlohmann::json map_info(const std::string& map) {
+  return nlohmann::json::parse(loopd::test::last_line(run(kBin + "/tools/loopd-map/loopd-map --json '" + map + "' info")));
 }
 
 struct TempDir {
@@ -204,6 +205,37 @@ TEST_CASE("a second drive with the first one's scan times is its own session: th
     CHECK(rerun.sessions_opened == 0);
     CHECK(rerun.session == 1);
   }
+}
+
+TEST_CASE("on a PostgreSQL map, another town's drive with the first one's scan times is its own session, stored whole") {
+  loopd::test::PostgresServer server;
+  if (!server.start()) {
+    if (server.binaries_missing()) {
+      WARN("PostgreSQL server binaries missing: skipped (" << server.reason() << ")");
+      return;
+    }
+    FAIL("PostgreSQL test server did not start: " << server.reason());
+  }
+  const std::string uri = server.create_database("two_drives");
+  REQUIRE(!uri.empty());
+  TempDir dir("loopd_same_time_pg");
+  const fs::path& d = dir.path;
+  simulate(d / "s1.lcmlog", 3, 1, 300);
+  simulate(d / "x2.lcmlog", 4, 2, 300, "--same-day");
+  replay(d / "s1.lcmlog", d / "o1.lcmlog", uri);
+  const int first_keyframes = map_info(uri)["keyframes"].get<int>();
+  replay(d / "x2.lcmlog", d / "ox2.lcmlog", uri);
+  const nlohmann::json after = map_info(uri);
+  INFO(after.dump(1));
+  REQUIRE(after["sessions"] == 2);
+  CHECK(after["session_list"][1]["first_utime"] == after["session_list"][0]["first_utime"]);
+  CHECK(after["session_list"][1]["anchored"] == false);
+  CHECK(after["keyframes"].get<int>() - first_keyframes >= 120);
+  CHECK(inter_session_loops(d / "ox2.lcmlog", d / "s1.lcmlog", d / "x2.lcmlog").accepted == 0);
+  const loopd::status_t status = last_status(d / "ox2.lcmlog");
+  CHECK(status.sessions_opened == 1);
+  CHECK(status.keyframes_skipped == 0);
+  CHECK(status.map_write_failures == 0);
 }
 
 TEST_CASE("an odometry reset mid-drive opens a new session that loops re-anchor to the map") {
