@@ -167,7 +167,7 @@ TEST_CASE("a second drive with the first one's scan times is its own session: th
   REQUIRE(before["sessions"] == 1);
   const int first_keyframes = before["keyframes"].get<int>();
 
-  SECTION("same town from elsewhere, same scan times: aligned through prior-free loops") {
+  {  // the same town from elsewhere, same scan times: aligned through prior-free loops (no SECTIONs: one base run)
     simulate(d / "s2.lcmlog", 3, 2, 300, "--same-day");
     replay(d / "s2.lcmlog", d / "o2.lcmlog", d / "map.db");
     const nlohmann::json after = map_info(d / "map.db");
@@ -182,7 +182,7 @@ TEST_CASE("a second drive with the first one's scan times is its own session: th
     run(kBin + "/tools/loopd-map/loopd-map " + (d / "map.db").string() + " check");  // exit 0: the invariants hold
   }
 
-  SECTION("another town, same scan times: its own session, no loop to the first") {
+  {  // another town, same scan times: its own session, no loop to the first
     simulate(d / "x2.lcmlog", 4, 2, 300, "--same-day");
     replay(d / "x2.lcmlog", d / "ox2.lcmlog", d / "other.db");
     const nlohmann::json after = map_info(d / "other.db");
