@@ -14,9 +14,9 @@ namespace loopd {
 /// `at_keyframe` enters the map (once), as a hung verification or a hung map write would; everything is passed on
 /// unchanged. Armed only by the environment (LOOPD_FAULT_STALL_AT_KEYFRAME=N and LOOPD_FAULT_STALL_MS=ms, see
 /// from_environment()); no config field arms it, and production runs never set these variables.
-class FaultStallSink : public EngineSink {
+class FaultStallSink : public ForwardingSink {
  public:
-  FaultStallSink(EngineSink& next, std::int64_t at_keyframe, int stall_ms) : next_(next), at_keyframe_(at_keyframe), stall_ms_(stall_ms) {}
+  FaultStallSink(EngineSink& next, std::int64_t at_keyframe, int stall_ms) : ForwardingSink(next), at_keyframe_(at_keyframe), stall_ms_(stall_ms) {}
 
   /// @brief The stall the environment asks for: {keyframe index, milliseconds}, nothing when either is unset or < 0 / <= 0.
   static std::optional<std::pair<std::int64_t, int>> from_environment() {
@@ -33,12 +33,8 @@ class FaultStallSink : public EngineSink {
     }
     next_.on_keyframe(keyframe, T_map_sensor, map_cloud);
   }
-  void on_decision(const LoopDecision& decision) override { next_.on_decision(decision); }
-  void on_correction(const CorrectionOutput& correction) override { next_.on_correction(correction); }
-  void on_keyframe_decided(const KeyframeKey& keyframe) override { next_.on_keyframe_decided(keyframe); }
 
  private:
-  EngineSink& next_;
   std::int64_t at_keyframe_;
   int stall_ms_;
   bool stalled_ = false;  ///< sequential stage only: one thread at a time

@@ -93,16 +93,10 @@ CorrectionOutput to_correction_output(const FleetCorrectionRecord& record, int v
 
 /// @brief In front of the output: passes everything but the detector's own corrections (in a fleet only the joint
 /// correction is published; the detector's still go to the map store, for resume, through the writer before it).
-class LocalCorrectionFilter : public EngineSink {
+class LocalCorrectionFilter : public ForwardingSink {
  public:
-  explicit LocalCorrectionFilter(EngineSink& next) : next_(next) {}
-  void on_keyframe(const KeyframeRecord& k, const Eigen::Isometry3d& T, const MapCloudBlob& c) override { next_.on_keyframe(k, T, c); }
-  void on_decision(const LoopDecision& decision) override { next_.on_decision(decision); }
+  using ForwardingSink::ForwardingSink;
   void on_correction(const CorrectionOutput& /*correction*/) override {}
-  void on_keyframe_decided(const KeyframeKey& keyframe) override { next_.on_keyframe_decided(keyframe); }
-
- private:
-  EngineSink& next_;
 };
 
 }  // namespace loopd

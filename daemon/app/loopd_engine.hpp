@@ -64,6 +64,22 @@ class EngineSink {
   virtual void on_idle() {}
 };
 
+/// @brief A sink in front of another that passes every call on; filters derive from it and override what they change.
+class ForwardingSink : public EngineSink {
+ public:
+  explicit ForwardingSink(EngineSink& next) : next_(next) {}
+  void on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor, const MapCloudBlob& map_cloud) override {
+    next_.on_keyframe(keyframe, T_map_sensor, map_cloud);
+  }
+  void on_decision(const LoopDecision& decision) override { next_.on_decision(decision); }
+  void on_correction(const CorrectionOutput& correction) override { next_.on_correction(correction); }
+  void on_keyframe_decided(const KeyframeKey& keyframe) override { next_.on_keyframe_decided(keyframe); }
+  void on_idle() override { next_.on_idle(); }
+
+ protected:
+  EngineSink& next_;
+};
+
 /// @brief Counters reported in status_t.
 struct EngineStats {
   std::int64_t scans_in = 0, poses_in = 0;

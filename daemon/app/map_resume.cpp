@@ -73,12 +73,18 @@ ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeL
   }
   summary.dropped_undecided = dropped.value;
   StoredCorrection stored;
+  if (auto e = read_correction(store, &stored)) {
+    summary.error = *e;
+    return summary;
+  }
   std::vector<LoopRecord> loops;
-  if (auto e = read_correction(store, &stored)) summary.error = *e;
-  if (summary.error.empty())
-    if (auto e = read_loops(store, &loops)) summary.error = *e;
-  if (!summary.error.empty()) return summary;
-  if (before.size() != loops.size()) {
+  if (dropped.value == 0) {
+    loops = std::move(before);  // nothing cut off: the loops read above are the map's
+  } else {
+    if (auto e = read_loops(store, &loops)) {
+      summary.error = *e;
+      return summary;
+    }
     std::set<std::int64_t> kept;
     for (const LoopRecord& r : loops) kept.insert(r.event_id);
     for (const LoopRecord& r : before)

@@ -16,23 +16,16 @@ namespace loopd {
 /// published then (same event_id, candidate, status and transform) is stored again but not published again; one that
 /// differs, or one that had not reached the bus, is published (a consumer keyed by event_id takes the later one: the
 /// message docs say so). Everything else passes unchanged.
-class RepublishFilter : public EngineSink {
+class RepublishFilter : public ForwardingSink {
  public:
-  explicit RepublishFilter(EngineSink& next) : next_(next) {}
+  using ForwardingSink::ForwardingSink;
   /// @brief The cut-off decisions that had reached the bus (ResumeSummary::cut_off_published), before any input.
   void expect(const std::vector<LoopDecision>& published);
   std::int64_t not_republished() const { return not_republished_.load(); }
 
-  void on_keyframe(const KeyframeRecord& k, const Eigen::Isometry3d& T_map_sensor, const MapCloudBlob& cloud) override {
-    next_.on_keyframe(k, T_map_sensor, cloud);
-  }
   void on_decision(const LoopDecision& decision) override;
-  void on_correction(const CorrectionOutput& correction) override { next_.on_correction(correction); }
-  void on_keyframe_decided(const KeyframeKey& keyframe) override { next_.on_keyframe_decided(keyframe); }
-  void on_idle() override { next_.on_idle(); }
 
  private:
-  EngineSink& next_;
   std::map<std::int64_t, LoopDecision> published_;  ///< by event_id
   std::atomic<std::int64_t> not_republished_{0};    ///< read by status while the engine thread writes
 };

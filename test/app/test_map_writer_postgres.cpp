@@ -64,17 +64,23 @@ test::PostgresServer* own_server() {
   return &server;
 }
 
+/// A fresh database `name` on the test's server, opened as a map store.
+OpenedMapStore open_fresh_map(test::PostgresServer& server, const std::string& name) {
+  MapStoreConfig config;
+  config.uri = server.create_database(name);
+  REQUIRE(!config.uri.empty());
+  OpenedMapStore opened = open_map_store(config);
+  REQUIRE(opened.status.ok());
+  return opened;
+}
+
 }  // namespace
 
 TEST_CASE("map writer on postgres: a commit whose acknowledgement is lost is stored once and the writer goes on", "[postgres]") {
   test::PostgresServer* server = own_server();
   if (!server) return;
-  const std::string uri = server->create_database("lost_ack");
-  REQUIRE(!uri.empty());
-  MapStoreConfig config;
-  config.uri = uri;
-  OpenedMapStore opened = open_map_store(config);
-  REQUIRE(opened.status.ok());
+  OpenedMapStore opened = open_fresh_map(*server, "lost_ack");
+  const std::string uri = server->uri_with_password("loopdtest1", "lost_ack");
   MapStore& store = *opened.store;
   Counter next;
   MapWriter writer(store, next, 1000);
@@ -129,12 +135,7 @@ TEST_CASE("map writer on postgres: a commit whose acknowledgement is lost is sto
 TEST_CASE("map writer on postgres: an idle vehicle's buffer reaches the server within the retry period of its return", "[postgres]") {
   test::PostgresServer* server = own_server();
   if (!server) return;
-  const std::string uri = server->create_database("idle_flush");
-  REQUIRE(!uri.empty());
-  MapStoreConfig config;
-  config.uri = uri;
-  OpenedMapStore opened = open_map_store(config);
-  REQUIRE(opened.status.ok());
+  OpenedMapStore opened = open_fresh_map(*server, "idle_flush");
   Counter next;
   MapWriter writer(*opened.store, next, 1000);
   writer.set_retry_period(1.0);
