@@ -22,11 +22,16 @@ constexpr double kPi = 3.14159265358979323846;
 /// T_odom_sensor at t [s after the stamp].
 using Motion = std::function<Eigen::Isometry3d(double)>;
 
-/// Straight at 15 m/s while yawing at 45 deg/s (translation linear, rotation at constant rate: interpolation is exact).
+/// On an arc: 15 m/s ahead, 1 m/s to the left and 0.2 m/s up in the sensor frame while yawing at 45 deg/s (a
+/// constant velocity in the moving frame: the screw motion deskew interpolates is exact). Closed form: with
+/// psi = psi0 + w t, dx/dt = vx cos psi - vy sin psi, dy/dt = vx sin psi + vy cos psi.
 Eigen::Isometry3d straight_and_yawing(double t) {
+  const double w = 45.0 * kPi / 180.0, psi0 = 0.3, psi = psi0 + w * t;
+  const double vx = 15.0, vy = 1.0, vz = 0.2;
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(0.3 + 45.0 * kPi / 180.0 * t, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  T.translation() = Eigen::Vector3d(5.0, 2.0, 1.8) + t * Eigen::Vector3d(15.0, 1.0, 0.2);
+  T.linear() = Eigen::AngleAxisd(psi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const double ds = std::sin(psi) - std::sin(psi0), dc = std::cos(psi) - std::cos(psi0);
+  T.translation() = Eigen::Vector3d(5.0, 2.0, 1.8) + Eigen::Vector3d((vx * ds + vy * dc) / w, (-vx * dc + vy * ds) / w, vz * t);
   return T;
 }
 

@@ -62,8 +62,9 @@ std::optional<Eigen::Isometry3d> PoseTrack::at(double t, double max_extrapolatio
   const double span = times_[b] - times_[a];
   if (beyond > max_extrapolation + kUtimeResolution || span > max_gap_) return std::nullopt;
   if (extrapolated && beyond > kUtimeResolution) *extrapolated = beyond;
-  // interpolate() slerps and lerps; with alpha outside [0, 1] it continues the pair's motion (constant velocity).
-  return interpolate(poses_[a], poses_[b], (t - times_[a]) / span);
+  // The screw motion between the pair (a constant velocity in the sensor frame: an arc stays an arc); with alpha
+  // outside [0, 1] it continues the same motion.
+  return interpolate_screw(poses_[a], poses_[b], (t - times_[a]) / span);
 }
 
 std::optional<double> PoseTrack::coverage(double lo, double hi, double max_extrapolation) const {

@@ -14,6 +14,37 @@ Eigen::Isometry3d interpolate(const Eigen::Isometry3d& a, const Eigen::Isometry3
   return out;
 }
 
+namespace {
+
+Eigen::Matrix3d hat(const Eigen::Vector3d& w) {
+  Eigen::Matrix3d W;
+  W << 0.0, -w.z(), w.y(), w.z(), 0.0, -w.x(), -w.y(), w.x(), 0.0;
+  return W;
+}
+
+/// V(w) of SE(3)'s exponential, t = V(w) v (Barfoot 2017, Eq. 7.86; series below 1e-4 rad).
+Eigen::Matrix3d se3_v(const Eigen::Vector3d& w) {
+  const double theta = w.norm();
+  const Eigen::Matrix3d W = hat(w);
+  if (theta < 1e-4) return Eigen::Matrix3d::Identity() + 0.5 * W + W * W / 6.0;
+  const double t2 = theta * theta;
+  return Eigen::Matrix3d::Identity() + (1.0 - std::cos(theta)) / t2 * W + (theta - std::sin(theta)) / (t2 * theta) * W * W;
+}
+
+}  // namespace
+
+Eigen::Isometry3d interpolate_screw(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double alpha) {
+  const Eigen::Isometry3d D = a.inverse() * b;
+  const Eigen::AngleAxisd aa(D.linear());
+  const Eigen::Vector3d w = aa.axis() * aa.angle();
+  const Eigen::Vector3d v = se3_v(w).inverse() * D.translation();  // 3x3, well conditioned for |w| < 2 pi
+  Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+  const Eigen::Vector3d aw = alpha * w;
+  step.linear() = Eigen::AngleAxisd(aw.norm(), aw.norm() > 0.0 ? Eigen::Vector3d(aw.normalized()) : Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  step.translation() = se3_v(aw) * (alpha * v);
+  return a * step;
+}
+
 double rotation_angle(const Eigen::Isometry3d& T) {
   const double c = std::clamp((T.linear().trace() - 1.0) * 0.5, -1.0, 1.0);
   return std::acos(c);

@@ -15,6 +15,11 @@ struct StampedPose {
 /// @brief Interpolates between two poses: translation linearly, rotation by slerp. alpha in [0, 1].
 Eigen::Isometry3d interpolate(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double alpha);
 
+/// @brief Interpolates along the screw motion from a to b: a * Exp(alpha * Log(a^-1 b)) on SE(3), i.e. at a constant
+///        velocity in the moving frame (a vehicle on a circular arc at a constant speed and yaw rate stays on its arc;
+///        interpolate() would cut the chord). Any alpha: outside [0, 1] it continues the same motion.
+Eigen::Isometry3d interpolate_screw(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double alpha);
+
 /// @brief Rotation angle of an isometry [rad].
 double rotation_angle(const Eigen::Isometry3d& T);
 
