@@ -301,6 +301,7 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("association.max_pending_scans", e.association.max_pending_scans);
   b.field("association.max_poses", e.association.max_poses);
   b.field("deskew.enabled", e.deskew.enabled);
+  b.field("deskew.from_scans", e.deskew_from_scans);
   b.field("submap.enabled", e.submap.enabled);
   b.field("submap.max_coverage_deg", e.submap.max_coverage_deg);
   int submap_min_points = static_cast<int>(e.submap.min_points);

@@ -23,6 +23,7 @@ const std::vector<std::string> kCompilerLibraries{"libLLVM", "libclang-cpp"};
 std::optional<std::string> EngineConfig::validate() const {
   if (auto e = association.validate()) return e;
   if (auto e = deskew.validate()) return e;
+  if (auto e = sweep_motion.validate()) return "deskew from scans: " + *e;
   if (auto e = submap.validate()) return e;
   if (auto e = detector.validate()) return e;
   if (num_threads < 0) return "num_threads must be >= 0 (0 = hardware threads)";
@@ -159,14 +160,28 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     stats_.dropped_no_pose = associator_.dropped_no_pose();
     stats_.pending_scans = static_cast<int>(associator_.pending());
   }
+  const bool sweeps_from_scans = config_.deskew.enabled && config_.deskew_from_scans;
   for (auto& s : scans) {
     residual_since_keyframe_ += s.residual_sum;
+    // The scan before a keyframe measures the keyframe's sweep motion with it (deskew_from_scans).
+    std::shared_ptr<const WindowScan> previous = std::move(previous_scan_);
+    bool timed = sweeps_from_scans && s.cloud.has_time();
     // A narrow or sparse sensor: every scan is kept a moment for the next keyframe's submap.
     const bool narrow = scan_window_.update_mode(needs_submap(s.cloud, config_.submap));
-    if (!selector_.accept(s.pose.T_world_sensor, s.utime, [&s] { return scene_scale(s.cloud); })) {
-      if (narrow) keep_for_submaps(std::move(s));
+    // A sweep that began before the first pose (the drive's first scan) could only be deskewed by guessing the motion
+    // before the odometry: the next scan, measured throughout, makes a better first keyframe.
+    const bool before_odometry = config_.deskew.enabled && s.cloud.has_time() && sweep_begins_before_poses(s);
+    if (before_odometry) timed = false;  // nor the sweep-motion reference of the next one: its motion is not known
+    if (before_odometry || !selector_.accept(s.pose.T_world_sensor, s.utime, [&s] { return scene_scale(s.cloud); })) {
+      if (narrow) {
+        auto kept = keep_for_submaps(std::move(s));
+        if (timed) previous_scan_ = std::move(kept);
+      } else if (timed) {
+        previous_scan_ = std::make_shared<const WindowScan>(WindowScan{s.utime, std::move(s.cloud), s.pose.T_world_sensor, {}});
+      }
       continue;
     }
+    if (timed) previous_scan_ = std::make_shared<const WindowScan>(WindowScan{s.utime, s.cloud, s.pose.T_world_sensor, {}});
     const std::uint64_t fingerprint = scan_fingerprint(s.cloud);
     SessionKeys::Assigned assigned = session_keys_.assign(s.utime, s.pose.T_world_sensor, fingerprint);
     if (!assigned.note.empty() && log_enabled(LogLevel::kInfo)) std::fprintf(stderr, "loopd: %s\n", assigned.note.c_str());
@@ -191,6 +206,7 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     job.input.scan_fingerprint = fingerprint;
     residual_since_keyframe_ = 0.0;
     job.T_odom_scan = s.pose.T_world_sensor;
+    job.previous = std::move(previous);
     if (narrow) {
       job.submap = scan_window_.recent(s.utime, s.pose.T_world_sensor);
       keep_for_submaps(s);  // a copy: the keyframe's scan belongs to the next keyframes' windows too
@@ -311,13 +327,14 @@ void LoopdEngine::note_sensor(KeyframeFeatures& f) {
   f.sensor_mismatch.shrink_to_fit();
 }
 
-void LoopdEngine::keep_for_submaps(AssociatedScan s) {
+std::shared_ptr<const WindowScan> LoopdEngine::keep_for_submaps(AssociatedScan s) {
   auto kept = std::make_shared<WindowScan>();
   kept->utime = s.utime;
   kept->cloud = std::move(s.cloud);
   kept->T_odom_sensor = s.pose.T_world_sensor;
   kept->sweep_poses = std::move(s.sweep_poses);
-  scan_window_.push(std::move(kept));
+  scan_window_.push(kept);
+  return kept;
 }
 
 void LoopdEngine::merge_submap_scans(Job& job) {
@@ -329,8 +346,46 @@ void LoopdEngine::merge_submap_scans(Job& job) {
   stats_.submap_scans += merged;
 }
 
+bool LoopdEngine::sweep_begins_before_poses(const AssociatedScan& s) {
+  if (s.sweep_poses.empty()) return false;
+  const double t0 = time_span(s.cloud).first;
+  return s.sweep_poses.front().utime > s.utime + static_cast<std::int64_t>(std::ceil(t0 * 1e6));
+}
+
+std::vector<StampedPose> LoopdEngine::sweep_poses_from_scans(const Job& job) {
+  const std::shared_ptr<const WindowScan>& prev = job.previous;
+  if (!prev || !prev->cloud.has_time()) return {};
+  const double dt = static_cast<double>(job.input.utime - prev->utime) * 1e-6;
+  if (!(dt > 0.0) || dt > config_.deskew.max_pose_gap) return {};  // not the scan just before it (a scan lost between)
+  const auto [t0, t1] = time_span(job.cloud);
+  if (t0 == 0.0 && t1 == 0.0) return {};
+  // Odometry with poses inside the sweep (an IMU-rate pose stream) already follows the motion through the sweep.
+  const std::int64_t begin = job.input.utime + static_cast<std::int64_t>(std::floor(t0 * 1e6));
+  const std::int64_t end = job.input.utime + static_cast<std::int64_t>(std::ceil(t1 * 1e6));
+  for (const StampedPose& p : job.sweep_poses)
+    if (p.utime > begin && p.utime < end) return {};
+  const Eigen::Isometry3d odometry_T_previous_current = prev->T_odom_sensor.inverse() * job.T_odom_scan;
+  const SweepMotionResult m = estimate_sweep_motion(prev->cloud, job.cloud, dt, odometry_T_previous_current, config_.sweep_motion);
+  {
+    std::lock_guard<std::mutex> s(stats_mutex_);
+    ++(m.refined ? stats_.sweeps_from_scans : stats_.sweeps_from_odometry);
+  }
+  if (!m.refined) return {};
+  StampedPose a, b;
+  a.utime = prev->utime;
+  a.T_world_sensor = job.T_odom_scan * m.T_previous_current.inverse();
+  b.utime = job.input.utime;
+  b.T_world_sensor = job.T_odom_scan;
+  return {a, b};
+}
+
 void LoopdEngine::deskew_scan(Job& job) {
   if (!config_.deskew.enabled || !job.cloud.has_time()) return;  // scans without times stay as they came, bit for bit
+  if (config_.deskew_from_scans) {
+    std::vector<StampedPose> measured = sweep_poses_from_scans(job);
+    if (!measured.empty()) job.sweep_poses = std::move(measured);
+  }
+  job.previous.reset();
   const DeskewResult r = deskew(config_.deskew, job.sweep_poses, job.input.utime, &job.cloud);
   job.sweep_poses = {};
   if (r.skipped == DeskewSkip::kNoSpan) return;  // an instantaneous scan: nothing to correct
@@ -410,8 +465,16 @@ void LoopdEngine::finish() {
     stats_.dropped_no_pose = associator_.dropped_no_pose();
     stats_.pending_scans = 0;
   }
-  std::unique_lock<std::mutex> lock(done_mutex_);
-  while (!done_cv_.wait_for(lock, std::chrono::milliseconds(20), [&] { return sequenced_.load() >= next_sequence_; })) {}
+  {
+    std::unique_lock<std::mutex> lock(done_mutex_);
+    while (!done_cv_.wait_for(lock, std::chrono::milliseconds(20), [&] { return sequenced_.load() >= next_sequence_; })) {}
+  }
+  // Every keyframe is sequenced and no worker calls the sink any more.
+  if (auto c = detector_.final_correction()) {
+    sink_->on_final_correction(*c);
+    std::lock_guard<std::mutex> s(stats_mutex_);
+    T_map_odom_ = detector_.T_map_odom();
+  }
 }
 
 EngineStats LoopdEngine::stats() const {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "loopd/core/deskew.hpp"
+#include "loopd/registration/sweep_motion.hpp"
 #include "loopd/map/map_cloud.hpp"
 #include "loopd/pipeline/keyframe_selector.hpp"
 #include "loopd/pipeline/keyframe_submap.hpp"
@@ -31,7 +32,12 @@ namespace loopd {
 /// @brief Engine settings beyond the detector's: association, threads, queues, input limits.
 struct EngineConfig {
   AssociationConfig association;
-  DeskewConfig deskew;          ///< motion compensation of keyframe scans that carry per-point times, before their features
+  DeskewConfig deskew;  ///< motion compensation of keyframe scans that carry per-point times, before their features
+  /// Deskew with the sweep's motion measured by the keyframe's scan and the scan before it (estimate_sweep_motion)
+  /// where the odometry has no pose inside the sweep (10 Hz odometry: its increments' step noise would bend the scan);
+  /// the odometry's motion where the scans disagree with it or do not register (deskew.from_scans).
+  bool deskew_from_scans = true;
+  SweepMotionConfig sweep_motion;
   KeyframeSubmapConfig submap;  ///< a narrow or sparse scan's keyframe cloud from the scans just before it
   LoopDetectorConfig detector;
   int num_threads = 0;                         ///< feature/verification workers; 0 = hardware threads
@@ -57,6 +63,10 @@ class EngineSink {
   virtual void on_keyframe(const KeyframeRecord& /*keyframe*/, const Eigen::Isometry3d& /*T_map_sensor*/, const MapCloudBlob& /*map_cloud*/) {}
   virtual void on_decision(const LoopDecision& decision) = 0;
   virtual void on_correction(const CorrectionOutput& correction) = 0;
+  /// @brief The end of a run (finish()): every keyframe and loop solved once more in one pose graph
+  ///        (LoopDetector::final_correction), the trajectory to take away. Not a map store's: the store resumes at the
+  ///        correction of its newest loop, which the next loop's solve supersedes.
+  virtual void on_final_correction(const CorrectionOutput& /*correction*/) {}
   /// @brief Every decision of `keyframe` (and its correction, if any) has been delivered.
   virtual void on_keyframe_decided(const KeyframeKey& /*keyframe*/) {}
   /// @brief The sequential stage is idle (LoopdEngine::tick, live): a moment for background work such as retrying
@@ -73,6 +83,7 @@ class ForwardingSink : public EngineSink {
   }
   void on_decision(const LoopDecision& decision) override { next_.on_decision(decision); }
   void on_correction(const CorrectionOutput& correction) override { next_.on_correction(correction); }
+  void on_final_correction(const CorrectionOutput& correction) override { next_.on_final_correction(correction); }
   void on_keyframe_decided(const KeyframeKey& keyframe) override { next_.on_keyframe_decided(keyframe); }
   void on_idle() override { next_.on_idle(); }
 
@@ -108,6 +119,8 @@ struct EngineStats {
   std::int64_t sessions_opened = 0;       ///< sessions this run opened (another drive, an odometry reset)
   std::int64_t keyframes_skipped = 0;     ///< scans recognised as keyframes the map holds (a replay rerun) and skipped
   double deskew_max_correction = 0.0;     ///< [m] largest distance deskew moved a point
+  std::int64_t sweeps_from_scans = 0;     ///< keyframes deskewed with the motion their scans measured (deskew.from_scans)
+  std::int64_t sweeps_from_odometry = 0;  ///< keyframes that tried and kept the odometry's motion (scans disagreed, did not register)
   std::string device;
 };
 
@@ -166,6 +179,7 @@ class LoopdEngine {
     std::vector<StampedPose> sweep_poses;                           ///< T_odom_sensor around the sweep (deskew on, scan with times)
     Eigen::Isometry3d T_odom_scan = Eigen::Isometry3d::Identity();  ///< the scan's odometry pose as received (submap frame)
     std::vector<std::shared_ptr<const WindowScan>> submap;          ///< earlier scans to merge (narrow or sparse sensor)
+    std::shared_ptr<const WindowScan> previous;                     ///< the scan before it, for the sweep's motion (deskew_from_scans)
   };
   void handle_associated(std::vector<AssociatedScan> scans);
   void update_input_health();
@@ -183,7 +197,11 @@ class LoopdEngine {
   /// The earlier scans of a narrow or sparse sensor merged into the keyframe's cloud (after deskew_scan).
   void merge_submap_scans(Job& job);
   /// Keeps a scan in the window of later keyframes' submaps (ingest thread).
-  void keep_for_submaps(AssociatedScan scan);
+  std::shared_ptr<const WindowScan> keep_for_submaps(AssociatedScan scan);
+  /// The sweep's motion from the job's scan and the one before it, as two poses for deskew() (empty: keep the odometry's).
+  std::vector<StampedPose> sweep_poses_from_scans(const Job& job);
+  /// True when the scan's sweep began before the first of its poses (deskew would extrapolate the motion backwards).
+  static bool sweep_begins_before_poses(const AssociatedScan& scan);
   /// Logs what a keyframe's scan showed of the lidar when it differs from what was last logged (a few times at
   /// most), and a configured preset that does not fit the scans (once); then drops the notes from the features.
   void note_sensor(KeyframeFeatures& features);
@@ -240,7 +258,8 @@ class LoopdEngine {
   std::atomic<std::int64_t> worker_steps_{0};
   std::atomic<std::int64_t> sequential_steps_{0};
 
-  ScanWindow scan_window_;  ///< (ingest thread) recent scans of a narrow or sparse sensor
+  ScanWindow scan_window_;                           ///< (ingest thread) recent scans of a narrow or sparse sensor
+  std::shared_ptr<const WindowScan> previous_scan_;  ///< (ingest thread) the last scan with per-point times (deskew_from_scans)
   mutable std::mutex stats_mutex_;
   std::string sensor_logged_;  ///< (under stats_mutex_) the last logged sensor layout's rings or rows
   int sensor_notes_ = 0;       ///< (under stats_mutex_) layout notes logged

@@ -1,0 +1,156 @@
+#include "loopd/registration/sweep_motion.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <vector>
+
+#include "loopd/core/pose.hpp"
+#include "loopd/core/stopwatch.hpp"
+#include "loopd/core/voxel_grid.hpp"
+
+namespace loopd {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// Voxel centroids of a sweep's finite, timed points within [min_range, max_range], each with its points' mean time
+/// and the normal of their scatter (zero where they form no plane: too few, or an edge, a corner, foliage).
+struct TimedVoxels {
+  std::vector<Eigen::Vector3f> points, normals;
+  std::vector<float> time;
+};
+
+struct VoxelMoments {
+  double time = 0.0;
+  Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();  ///< sum of p p^T
+};
+
+TimedVoxels timed_voxels(const PointCloud& cloud, const SweepMotionConfig& config) {
+  const std::size_t stride = config.max_input_points > 0 ? cloud.size() / static_cast<std::size_t>(config.max_input_points) + 1 : 1;
+  VoxelGrid<VoxelMoments> grid(config.voxel_size, cloud.size() / (8 * stride) + 16);
+  const double min2 = config.min_range * config.min_range, max2 = config.max_range * config.max_range;
+  for (std::size_t i = 0; i < cloud.size(); i += stride) {
+    const Eigen::Vector3f& p = cloud.points[i];
+    const float t = cloud.time[i];
+    if (!p.allFinite() || !std::isfinite(t)) continue;
+    const double r2 = p.squaredNorm();
+    if (r2 < min2 || r2 > max2) continue;
+    if (auto* v = grid.add(p)) {
+      const Eigen::Vector3d q = p.cast<double>();
+      v->payload.time += t;
+      v->payload.outer += q * q.transpose();
+    }
+  }
+  TimedVoxels out;
+  const auto voxels = std::move(grid).sorted_voxels();
+  out.points.reserve(voxels.size());
+  out.normals.reserve(voxels.size());
+  out.time.reserve(voxels.size());
+  constexpr std::uint32_t kMinPlanePoints = 5;
+  for (const auto& v : voxels) {
+    const double n = static_cast<double>(v.count);
+    const Eigen::Vector3d mean = v.sum / n;
+    out.points.push_back(mean.cast<float>());
+    out.time.push_back(static_cast<float>(v.payload.time / n));
+    Eigen::Vector3f normal = Eigen::Vector3f::Zero();
+    if (v.count >= kMinPlanePoints) {
+      const Eigen::Matrix3d C = v.payload.outer / n - mean * mean.transpose();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+      es.computeDirect(C);
+      const Eigen::Vector3d l = es.eigenvalues();  // ascending
+      if (l(0) < config.max_plane_thickness * l(1)) normal = es.eigenvectors().col(0).normalized().cast<float>();
+    }
+    out.normals.push_back(normal);
+  }
+  return out;
+}
+
+/// The centroids (and their normals) moved into their stamp's frame. The sensor's path through both sweeps is the one
+/// deskew() interpolates between two poses: P(tau) = interpolate(I, T_previous_current, tau / dt) in the previous
+/// stamp's frame (translation on a line, rotation at a constant rate), tau [s] after the previous stamp. A point of the
+/// previous sweep at time t was seen from P(t); one of the current sweep from T_previous_current^-1 P(dt + t).
+void deskew(const TimedVoxels& v, const Eigen::Isometry3d& T_previous_current, double dt, bool current, std::vector<Eigen::Vector3f>* points,
+            std::vector<Eigen::Vector3f>* normals) {
+  const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
+  const Eigen::Isometry3d T_current_previous = T_previous_current.inverse();
+  points->resize(v.points.size());
+  normals->resize(v.points.size());
+  for (std::size_t i = 0; i < v.points.size(); ++i) {
+    const double tau = (current ? dt : 0.0) + v.time[i];
+    const Eigen::Isometry3d P = interpolate_screw(I, T_previous_current, tau / dt);
+    const Eigen::Isometry3f T = (current ? T_current_previous * P : P).cast<float>();
+    (*points)[i] = T * v.points[i];
+    (*normals)[i] = T.linear() * v.normals[i];
+  }
+}
+
+}  // namespace
+
+GicpConfig SweepMotionConfig::default_gicp() {
+  GicpConfig g;
+  g.max_correspondence_distances = {1.0, 0.5};
+  g.max_source_points = 1500;
+  g.num_threads = 1;
+  g.min_fitness = 0.3;
+  return g;
+}
+
+std::optional<std::string> SweepMotionConfig::validate() const {
+  if (!(voxel_size > 0.0)) return "voxel_size must be > 0";
+  if (!(min_range >= 0.0 && max_range > min_range)) return "need 0 <= min_range < max_range";
+  if (rounds < 1 || rounds > 10) return "rounds must be in [1, 10]";
+  if (!(max_translation_change > 0.0) || !(max_rotation_change_deg > 0.0)) return "max_translation_change and max_rotation_change_deg must be > 0";
+  if (!(max_degeneracy >= 1.0)) return "max_degeneracy must be >= 1";
+  if (!(min_fitness >= 0.0 && min_fitness <= 1.0)) return "min_fitness must be in [0, 1]";
+  if (auto e = gicp.validate()) return "gicp: " + *e;
+  return std::nullopt;
+}
+
+SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointCloud& current, double dt,
+                                        const Eigen::Isometry3d& odometry_T_previous_current, const SweepMotionConfig& config) {
+  Stopwatch sw;
+  SweepMotionResult r;
+  r.T_previous_current = odometry_T_previous_current;
+  const auto give_up = [&](std::string why) {
+    r.T_previous_current = odometry_T_previous_current;
+    r.refined = false;
+    r.reason = std::move(why);
+    r.ms = sw.ms();
+    return r;
+  };
+  if (auto e = config.validate()) return give_up("invalid SweepMotionConfig: " + *e);
+  if (!(dt > 0.0) || !std::isfinite(dt)) return give_up("no time between the sweeps");
+  if (!previous.has_time() || !current.has_time()) return give_up("a sweep has no per-point times");
+  const TimedVoxels prev = timed_voxels(previous, config);
+  const TimedVoxels cur = timed_voxels(current, config);
+  constexpr std::size_t kMinVoxels = 50;
+  if (prev.points.size() < kMinVoxels || cur.points.size() < kMinVoxels) return give_up("too few points in range");
+  Eigen::Isometry3d T = odometry_T_previous_current;
+  std::vector<Eigen::Vector3f> source, source_normals, target, target_normals;
+  for (int round = 0; round < config.rounds; ++round) {
+    deskew(cur, T, dt, true, &source, &source_normals);
+    deskew(prev, T, dt, false, &target, &target_normals);
+    const GicpResult g = align_gicp(source, source_normals, target, target_normals, T, config.gicp);
+    r.iterations += g.iterations;
+    r.fitness = g.fitness;
+    r.degeneracy = g.degeneracy;
+    if (!g.converged) return give_up("GICP did not converge: " + g.reason);
+    T = g.T_target_source;
+  }
+  // A direction the scans do not fix (a straight street seen by 16 rings: GICP slides along it): their rotation still
+  // holds, the odometry's translation is kept.
+  r.rotation_only = !(r.degeneracy >= 1.0 && r.degeneracy <= config.max_degeneracy);
+  if (r.rotation_only) T.translation() = odometry_T_previous_current.translation();
+  r.translation_change = (T.translation() - odometry_T_previous_current.translation()).norm();
+  r.rotation_change_deg = rotation_angle(odometry_T_previous_current.inverse() * T) * 180.0 / kPi;
+  if (r.fitness < config.min_fitness) return give_up("GICP fitness " + std::to_string(r.fitness) + " below " + std::to_string(config.min_fitness));
+  if (r.translation_change > config.max_translation_change || r.rotation_change_deg > config.max_rotation_change_deg)
+    return give_up("the scans' increment is " + std::to_string(r.translation_change) + " m / " + std::to_string(r.rotation_change_deg) +
+                   " deg from the odometry's");
+  r.T_previous_current = T;
+  r.refined = true;
+  r.ms = sw.ms();
+  return r;
+}
+
+}  // namespace loopd

@@ -1,0 +1,69 @@
+#pragma once
+/// @file The sensor's motion over one sweep, measured with the scans themselves: GICP of a sweep onto the one before
+/// it, both motion-compensated under the motion being estimated (constant velocity over the two sweeps, the motion
+/// model of KISS-ICP's deskew, Vizzo et al. 2023 Sec. III-A), a few rounds. Odometry whose 10 Hz increments carry
+/// step noise (wheel slip, a degraded stretch) bends every deskewed scan by that noise; the scans' own overlap
+/// measures the increment to millimetres.
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+
+#include "loopd/core/point_cloud.hpp"
+#include "loopd/registration/gicp.hpp"
+
+namespace loopd {
+
+/// @brief Settings of estimate_sweep_motion.
+struct SweepMotionConfig {
+  double voxel_size = 1.0;  ///< [m] both sweeps are reduced to voxel centroids (with their mean point time)
+  double min_range = 2.0;   ///< [m] points nearer than this (the vehicle, the operator) are left out
+  double max_range = 60.0;  ///< [m] and farther than this (sparse, where a rotation error weighs most)
+  /// Input points used (a deterministic stride beyond it; 0: all): a 1 m voxel's plane needs a few dozen returns, not
+  /// the hundreds an HDL-64E puts into one nearby.
+  int max_input_points = 60000;
+  /// A voxel's points form a plane (its GICP normal) when their smallest scatter eigenvalue is below this share of the
+  /// middle one; otherwise the voxel gets none (isotropic covariance).
+  double max_plane_thickness = 0.1;
+  int rounds = 1;  ///< deskew under the estimate, register; more rounds re-deskew under the new estimate
+  /// A refined increment farther than this from the odometry's is not believed (a repetitive scene, a failed
+  /// registration): the odometry's is kept. [m] / [deg].
+  double max_translation_change = 0.5;
+  double max_rotation_change_deg = 3.0;
+  double min_fitness = 0.5;
+  /// Above this translational condition number of the registration (gicp_degeneracy) only the scans' rotation is
+  /// taken, the odometry's translation kept: a translation error moves a point by itself, a rotation error by itself
+  /// times the range, so the rotation is what deskew needs most.
+  double max_degeneracy = 10.0;  ///< inlier share GICP must reach (within its last correspondence distance)
+  GicpConfig gicp = default_gicp();
+
+  /// @brief GICP at 1 m voxels: 1.0 / 0.5 m correspondence stages, 1500 source points, one thread (the keyframe
+  ///        workers already run in parallel).
+  static GicpConfig default_gicp();
+  std::optional<std::string> validate() const;
+};
+
+/// @brief What estimate_sweep_motion found.
+struct SweepMotionResult {
+  bool refined = false;  ///< T_previous_current is the scans' (otherwise the odometry's, and `reason` says why)
+  Eigen::Isometry3d T_previous_current = Eigen::Isometry3d::Identity();  ///< sensor at the current stamp in the previous stamp's frame
+  double translation_change = 0.0;                                       ///< [m] from the odometry's increment
+  double rotation_change_deg = 0.0;                                      ///< [deg]
+  double fitness = 0.0;
+  bool rotation_only = false;  ///< refined, but the translation is the odometry's (degenerate registration)
+  double degeneracy = -1.0;    ///< gicp_degeneracy of the last registration (large: a direction the scans do not fix)
+  int iterations = 0;          ///< GICP iterations over all rounds
+  double ms = 0.0;
+  std::string reason;
+};
+
+/// @brief The motion between two consecutive sweeps' stamps, measured by registering `current` onto `previous`, each
+///        deskewed as if the sensor moved at the constant velocity of that motion, on the path deskew() interpolates
+///        between the two stamps' poses: at tau [s] after the previous stamp it was at interpolate(I, T_previous_current,
+///        tau / dt) in the previous stamp's frame, for the points of both sweeps (PointCloud::time [s] relative to their
+///        own scan's stamp). Both clouds need per-point times.
+/// @param dt [s] from the previous stamp to the current one (> 0)
+/// @param odometry_T_previous_current the odometry's increment: the first estimate and the check on the result
+SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointCloud& current, double dt,
+                                        const Eigen::Isometry3d& odometry_T_previous_current, const SweepMotionConfig& config);
+
+}  // namespace loopd
