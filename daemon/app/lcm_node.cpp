@@ -62,6 +62,10 @@ class OutputSink : public EngineSink {
     const std::int64_t t = data_time_ ? last_data_utime_.load() : wall_utime();
     publish(node_.trajectory_channel, t, trajectory_.make_message(c, t));
   }
+  void on_final_correction(const CorrectionOutput& c) override {
+    const std::int64_t t = data_time_ ? last_data_utime_.load() : wall_utime();
+    publish(node_.trajectory_channel, t, trajectory_.final_message(c, t));
+  }
   /// Every keyframe of the last correction, when the last trajectory_t was partial (end of a run).
   void finish_trajectory() {
     const std::int64_t t = data_time_ ? last_data_utime_.load() : wall_utime();

@@ -62,7 +62,7 @@ trajectory_t TrajectoryPublisher::build(const CorrectionOutput& c, std::int64_t 
   return m;
 }
 
-trajectory_t TrajectoryPublisher::make_message(const CorrectionOutput& correction, std::int64_t utime) {
+void TrajectoryPublisher::remember(const CorrectionOutput& correction) {
   last_.revision = correction.revision;
   last_.loop_event_id = correction.loop_event_id;
   last_.method = correction.method;
@@ -71,7 +71,16 @@ trajectory_t TrajectoryPublisher::make_message(const CorrectionOutput& correctio
   last_.T_map_sensor = correction.T_map_sensor;
   last_.T_map_odom = correction.T_map_odom;
   last_.sessions = correction.sessions;
+}
+
+trajectory_t TrajectoryPublisher::make_message(const CorrectionOutput& correction, std::int64_t utime) {
+  remember(correction);
   return build(correction, utime, snapshot_due(correction, utime));
+}
+
+trajectory_t TrajectoryPublisher::final_message(const CorrectionOutput& correction, std::int64_t utime) {
+  remember(correction);
+  return build(correction, utime, true);
 }
 
 std::optional<trajectory_t> TrajectoryPublisher::final_snapshot(std::int64_t utime) {

@@ -40,10 +40,13 @@ class TrajectoryPublisher {
   trajectory_t make_message(const CorrectionOutput& correction, std::int64_t utime);
   /// @brief Every keyframe of the last correction when the last message was partial (the end of a replay), else nothing.
   std::optional<trajectory_t> final_snapshot(std::int64_t utime);
+  /// @brief The end of a run's own correction (the final pose-graph solve): every keyframe.
+  trajectory_t final_message(const CorrectionOutput& correction, std::int64_t utime);
   const TrajectoryPublisherStats& stats() const { return stats_; }
 
  private:
   bool snapshot_due(const CorrectionOutput& c, std::int64_t utime) const;
+  void remember(const CorrectionOutput& correction);
   bool moved(std::size_t i, const Eigen::Isometry3d& T_map_sensor) const;
   trajectory_t build(const CorrectionOutput& c, std::int64_t utime, bool full);
 

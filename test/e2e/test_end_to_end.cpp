@@ -50,6 +50,7 @@ TEST_CASE("loopd closes the loops of a simulated VLP-16 drive and corrects its t
   int rejected = 0;
   trajectory_t last_traj{};
   int revisions = 0;
+  std::string final_method;
   status_t status{};
   while (reader.next(&ev)) {
     if (ev.channel == channels::kLoopEvent) {
@@ -64,12 +65,17 @@ TEST_CASE("loopd closes the loops of a simulated VLP-16 drive and corrects its t
       if (last_traj.revision == previous && last_traj.full) continue;  // the full snapshot at the end of the replay
       ++revisions;
       CHECK(last_traj.revision == revisions);
+      final_method = last_traj.method;
     } else if (ev.channel == channels::kStatus) {
       REQUIRE(LogReader::decode(ev, &status));
     }
   }
   CHECK(accepted.size() >= 10);
-  CHECK(revisions == static_cast<int>(accepted.size()));
+  // One revision per accepted loop, and the run's final solve of the whole graph with every keyframe, naming the
+  // newest loop.
+  CHECK(revisions == static_cast<int>(accepted.size()) + 1);
+  CHECK(final_method == "final");
+  CHECK(last_traj.loop_event_id == accepted.back().event_id);
   CHECK(status.loops_accepted == static_cast<std::int64_t>(accepted.size()));
   CHECK(status.loops_rejected == rejected);
   REQUIRE(status.num_channels == 2);

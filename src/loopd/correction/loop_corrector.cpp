@@ -165,6 +165,21 @@ CorrectionResult LoopCorrector::add_loops(const std::vector<LoopConstraint>& loo
   return r;
 }
 
+CorrectionResult LoopCorrector::solve_all() {
+  CorrectionResult r;
+  r.method = CorrectionMethod::kGraph;
+  r.num_loops = static_cast<int>(loops_.size());
+  if (config_.method == CorrectionMethod::kHeuristic || loops_.empty()) {
+    r.reason = loops_.empty() ? "no loops" : "heuristic method: no graph";
+    return r;
+  }
+  r = run_graph(corrected_, r);
+  last_graph_index_ = max_end_index_;
+  r.ok = true;
+  std::tie(r.end_translation_error, r.end_rotation_error) = loop_end_error(corrected_, loops_.back());
+  return r;
+}
+
 CorrectionResult LoopCorrector::recorrect_all() {
   CorrectionResult r;
   r.method = config_.method;

@@ -117,6 +117,10 @@ class LoopCorrector {
 
   /// @brief Re-corrects from odometry with all loops (e.g. after changing the method).
   CorrectionResult recorrect_all();
+  /// @brief One pose-graph solve of every keyframe and loop from the current corrected state (the end of a run: the
+  ///        loops heuristic+graph closed by the heuristic alone since the last solve join it, and so do the keyframes
+  ///        added after the last loop). The heuristic method keeps its state (ok = false).
+  CorrectionResult solve_all();
 
   const std::vector<Eigen::Isometry3d>& corrected_poses() const { return corrected_; }
   const std::vector<Eigen::Isometry3d>& odometry_poses() const { return odometry_; }

@@ -298,6 +298,21 @@ CorrectionOutput LoopDetector::correction_output(const CorrectionResult& result,
     c.T_map_sensor.push_back(corrected[static_cast<std::size_t>(pose_index(k.key))]);
   }
   c.ms = sw.ms();
+  last_correction_event_id_ = loop_event_id;
+  keyframes_at_correction_ = keyframes_.size();
+  correction_was_graph_ = result.graph_solved;
+  return c;
+}
+
+std::optional<CorrectionOutput> LoopDetector::final_correction() {
+  if (revision_ == 0 || (correction_was_graph_ && keyframes_at_correction_ == keyframes_.size())) return std::nullopt;
+  Stopwatch sw;
+  const CorrectionResult result = corrector_.solve_all();
+  if (!result.ok) return std::nullopt;
+  CorrectionOutput c = correction_output(result, last_correction_event_id_, sw);
+  c.method = "final";  // one pose-graph solve of everything, at the end of a run
+  gate_.update_positions(
+      [this](const KeyframeKey& k) { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(k))].translation(); });
   return c;
 }
 

@@ -177,6 +177,10 @@ class LoopDetector {
   /// @brief Bytes of full keyframe features in the cache (0 without keep_features_in_store).
   std::size_t cached_feature_bytes() const;
 
+  /// @brief The end of a run: every keyframe and loop in one pose-graph solve, when the last correction was not one
+  ///        (heuristic+graph closed its loops by the heuristic alone) or keyframes came after it; nothing otherwise.
+  ///        A new revision naming the newest accepted loop, method "final".
+  std::optional<CorrectionOutput> final_correction();
   /// @brief Corrected pose of an odometry pose received after the newest keyframe (in its session's frame).
   Eigen::Isometry3d T_map_odom() const;
   /// @brief Where every session lies in the map now.
@@ -252,6 +256,9 @@ class LoopDetector {
   std::int64_t next_event_id_ = 0;
   std::map<std::pair<std::int64_t, KeyframeKey>, std::int64_t> expected_event_ids_;  ///< (query utime, match) -> id
   std::int64_t revision_ = 0;
+  std::int64_t last_correction_event_id_ = 0;  ///< loop event of the newest correction
+  std::size_t keyframes_at_correction_ = 0;    ///< keyframes the newest correction covered
+  bool correction_was_graph_ = false;          ///< the newest correction was a pose-graph solve
   std::int64_t loops_accepted_ = 0;
   std::int64_t loops_rejected_ = 0;
   std::optional<KeyframeKey> last_accepted_;  ///< query of the newest accepted loop
