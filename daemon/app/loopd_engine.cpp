@@ -181,8 +181,16 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
       }
       continue;
     }
-    if (timed) previous_scan_ = std::make_shared<const WindowScan>(WindowScan{s.utime, s.cloud, s.pose.T_world_sensor, {}});
-    const std::uint64_t fingerprint = scan_fingerprint(s.cloud);
+    // The keyframe's raw scan is also the next scan's sweep-motion reference: shared, and copied by the worker that
+    // deskews it rather than here on the ingest thread (a narrow sensor's window keeps its own copy below).
+    std::shared_ptr<const WindowScan> raw;
+    if (timed && !narrow) {
+      raw = std::make_shared<const WindowScan>(WindowScan{s.utime, std::move(s.cloud), s.pose.T_world_sensor, {}});
+      previous_scan_ = raw;
+    } else if (timed) {
+      previous_scan_ = std::make_shared<const WindowScan>(WindowScan{s.utime, s.cloud, s.pose.T_world_sensor, {}});
+    }
+    const std::uint64_t fingerprint = scan_fingerprint(raw ? raw->cloud : s.cloud);
     SessionKeys::Assigned assigned = session_keys_.assign(s.utime, s.pose.T_world_sensor, fingerprint);
     if (!assigned.note.empty() && log_enabled(LogLevel::kInfo)) std::fprintf(stderr, "loopd: %s\n", assigned.note.c_str());
     if (assigned.stored) ++keyframes_skipped_;
@@ -211,7 +219,12 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
       job.submap = scan_window_.recent(s.utime, s.pose.T_world_sensor);
       keep_for_submaps(s);  // a copy: the keyframe's scan belongs to the next keyframes' windows too
     }
-    job.cloud = std::move(s.cloud);
+    if (raw)
+      job.raw = std::move(raw);
+    else
+      job.cloud = std::move(s.cloud);
+    job.sweep_begin = s.sweep_begin;
+    job.sweep_end = s.sweep_end;
     job.sweep_poses = std::move(s.sweep_poses);
     submit(std::move(job));
   }
@@ -279,6 +292,10 @@ void LoopdEngine::worker_loop() {
       ++busy_;
     }
     space_cv_.notify_one();
+    if (job.raw) {
+      job.cloud = job.raw->cloud;
+      job.raw.reset();
+    }
     deskew_scan(job);
     merge_submap_scans(job);
     auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud));
@@ -346,24 +363,17 @@ void LoopdEngine::merge_submap_scans(Job& job) {
   stats_.submap_scans += merged;
 }
 
-bool LoopdEngine::sweep_begins_before_poses(const AssociatedScan& s) {
-  if (s.sweep_poses.empty()) return false;
-  const double t0 = time_span(s.cloud).first;
-  return s.sweep_poses.front().utime > s.utime + static_cast<std::int64_t>(std::ceil(t0 * 1e6));
-}
+bool LoopdEngine::sweep_begins_before_poses(const AssociatedScan& s) { return !s.sweep_poses.empty() && s.sweep_poses.front().utime > s.sweep_begin; }
 
 std::vector<StampedPose> LoopdEngine::sweep_poses_from_scans(const Job& job) {
   const std::shared_ptr<const WindowScan>& prev = job.previous;
   if (!prev || !prev->cloud.has_time()) return {};
   const double dt = static_cast<double>(job.input.utime - prev->utime) * 1e-6;
   if (!(dt > 0.0) || dt > config_.deskew.max_pose_gap) return {};  // not the scan just before it (a scan lost between)
-  const auto [t0, t1] = time_span(job.cloud);
-  if (t0 == 0.0 && t1 == 0.0) return {};
+  if (job.sweep_begin == job.sweep_end) return {};                 // an instantaneous scan
   // Odometry with poses inside the sweep (an IMU-rate pose stream) already follows the motion through the sweep.
-  const std::int64_t begin = job.input.utime + static_cast<std::int64_t>(std::floor(t0 * 1e6));
-  const std::int64_t end = job.input.utime + static_cast<std::int64_t>(std::ceil(t1 * 1e6));
   for (const StampedPose& p : job.sweep_poses)
-    if (p.utime > begin && p.utime < end) return {};
+    if (p.utime > job.sweep_begin && p.utime < job.sweep_end) return {};
   const Eigen::Isometry3d odometry_T_previous_current = prev->T_odom_sensor.inverse() * job.T_odom_scan;
   const SweepMotionResult m = estimate_sweep_motion(prev->cloud, job.cloud, dt, odometry_T_previous_current, config_.sweep_motion);
   {

@@ -180,6 +180,8 @@ class LoopdEngine {
     Eigen::Isometry3d T_odom_scan = Eigen::Isometry3d::Identity();  ///< the scan's odometry pose as received (submap frame)
     std::vector<std::shared_ptr<const WindowScan>> submap;          ///< earlier scans to merge (narrow or sparse sensor)
     std::shared_ptr<const WindowScan> previous;                     ///< the scan before it, for the sweep's motion (deskew_from_scans)
+    std::shared_ptr<const WindowScan> raw;        ///< the scan, when shared as the next one's `previous`: the worker copies it into cloud
+    std::int64_t sweep_begin = 0, sweep_end = 0;  ///< [us] the first and last point time (the scan's utime without times)
   };
   void handle_associated(std::vector<AssociatedScan> scans);
   void update_input_health();

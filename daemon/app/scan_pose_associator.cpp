@@ -116,6 +116,8 @@ std::optional<AssociatedScan> ScanPoseAssociator::resolve(Pending& p) {
   AssociatedScan s;
   if (sweep_poses_ && p.cloud.has_time()) s.sweep_poses = poses_around(std::min(p.sweep_begin, p.utime), std::max(p.sweep_end, p.utime));
   s.utime = p.utime;
+  s.sweep_begin = p.sweep_begin;
+  s.sweep_end = p.sweep_end;
   s.cloud = std::move(p.cloud);
   s.pose = *pose;
   s.residual_sum = last_resolved_utime_ ? residual_between(*last_resolved_utime_, p.utime) : pose->residual;

@@ -28,6 +28,8 @@ struct AssociatedScan {
   /// With sweep poses on and per-point times in the cloud: the poses around the sweep (the ones within it, two before
   /// and one after it where the associator holds them), for deskew; empty otherwise.
   std::vector<StampedPose> sweep_poses;
+  /// [us] the first and last point time with sweep poses on and per-point times in the cloud; utime otherwise.
+  std::int64_t sweep_begin = 0, sweep_end = 0;
 };
 
 /// @brief Pairs scans with poses by utime: an exact match, or slerp between the bracketing poses when both lie

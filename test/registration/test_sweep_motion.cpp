@@ -3,11 +3,12 @@
 // odometry increment with the step noise of a degraded stretch. The scans must give back the true increment; a deskew with it must match the
 // scan the sensor would have seen standing still at the stamp better than a deskew with the odometry's.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
-#include <unordered_map>
 #include <vector>
 
 #include "loopd/core/deskew.hpp"
+#include "loopd/core/kdtree.hpp"
 #include "loopd/core/pose.hpp"
 #include "loopd/registration/sweep_motion.hpp"
 #include "loopd/sim/lidar_sim.hpp"
@@ -64,28 +65,16 @@ double rotation_deg(const Eigen::Isometry3d& T) { return loopd::rotation_angle(T
 /// Mean distance of a deskewed sweep's points (within 40 m) to the same rays of the still scan: the simulator's
 /// column-major order with the same rays is not kept by a sweep, so the nearest still point within 1 m stands in.
 double mean_distance_to_still(const loopd::PointCloud& deskewed, const loopd::PointCloud& still) {
-  // A coarse hash of the still scan: nearest of the points in the 27 cells around.
-  std::unordered_map<std::int64_t, std::vector<Eigen::Vector3f>> cells;
-  const auto key = [](int x, int y, int z) {
-    return (static_cast<std::int64_t>(x) * 73856093) ^ (static_cast<std::int64_t>(y) * 19349663) ^ (static_cast<std::int64_t>(z) * 83492791);
-  };
-  for (const auto& p : still.points)
-    cells[key(static_cast<int>(std::floor(p.x())), static_cast<int>(std::floor(p.y())), static_cast<int>(std::floor(p.z())))].push_back(p);
+  const loopd::KdTree3f tree(still.points);
   double sum = 0.0;
   int n = 0;
   for (std::size_t i = 0; i < deskewed.size(); i += 7) {
     const Eigen::Vector3f& p = deskewed.points[i];
     if (p.norm() > 40.0f) continue;
-    float best = 1.0f;
-    const int cx = static_cast<int>(std::floor(p.x())), cy = static_cast<int>(std::floor(p.y())), cz = static_cast<int>(std::floor(p.z()));
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz) {
-          const auto it = cells.find(key(cx + dx, cy + dy, cz + dz));
-          if (it == cells.end()) continue;
-          for (const auto& q : it->second) best = std::min(best, (p - q).norm());
-        }
-    sum += best;
+    int nearest = -1;
+    float dist_sq = 1.0f;
+    const bool found = tree.nearest(p, &nearest, &dist_sq);
+    sum += found ? std::min(1.0, std::sqrt(static_cast<double>(dist_sq))) : 1.0;  // capped at 1 m, as an unmatched point
     ++n;
   }
   return n > 0 ? sum / n : 1.0;
