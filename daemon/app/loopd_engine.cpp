@@ -176,8 +176,9 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
       if (narrow) {
         auto kept = keep_for_submaps(std::move(s));
         if (timed) previous_scan_ = std::move(kept);
-      } else if (timed) {
-        previous_scan_ = std::make_shared<const WindowScan>(WindowScan{s.utime, std::move(s.cloud), s.pose.T_world_sensor, {}});
+      } else if (timed) {  // only what the next keyframe's sweep motion reads: queued jobs hold it beside their scan
+        previous_scan_ =
+            std::make_shared<const WindowScan>(WindowScan{s.utime, sweep_motion_input(s.cloud, config_.sweep_motion), s.pose.T_world_sensor, {}});
       }
       continue;
     }
@@ -188,7 +189,8 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
       raw = std::make_shared<const WindowScan>(WindowScan{s.utime, std::move(s.cloud), s.pose.T_world_sensor, {}});
       previous_scan_ = raw;
     } else if (timed) {
-      previous_scan_ = std::make_shared<const WindowScan>(WindowScan{s.utime, s.cloud, s.pose.T_world_sensor, {}});
+      previous_scan_ =
+          std::make_shared<const WindowScan>(WindowScan{s.utime, sweep_motion_input(s.cloud, config_.sweep_motion), s.pose.T_world_sensor, {}});
     }
     const std::uint64_t fingerprint = scan_fingerprint(raw ? raw->cloud : s.cloud);
     SessionKeys::Assigned assigned = session_keys_.assign(s.utime, s.pose.T_world_sensor, fingerprint);

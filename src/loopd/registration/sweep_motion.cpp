@@ -1,6 +1,7 @@
 #include "loopd/registration/sweep_motion.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -25,8 +26,15 @@ struct VoxelMoments {
   Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();  ///< sum of p p^T
 };
 
+/// Every stride-th point keeps at most max_input_points (1 below it, and for an already reduced cloud).
+std::size_t input_stride(std::size_t n, int max_input_points) {
+  if (max_input_points <= 0) return 1;
+  const auto max = static_cast<std::size_t>(max_input_points);
+  return std::max<std::size_t>(1, (n + max - 1) / max);
+}
+
 TimedVoxels timed_voxels(const PointCloud& cloud, const SweepMotionConfig& config) {
-  const std::size_t stride = config.max_input_points > 0 ? cloud.size() / static_cast<std::size_t>(config.max_input_points) + 1 : 1;
+  const std::size_t stride = input_stride(cloud.size(), config.max_input_points);
   VoxelGrid<VoxelMoments> grid(config.voxel_size, cloud.size() / (8 * stride) + 16);
   const double min2 = config.min_range * config.min_range, max2 = config.max_range * config.max_range;
   for (std::size_t i = 0; i < cloud.size(); i += stride) {
@@ -85,6 +93,19 @@ void deskew(const TimedVoxels& v, const Eigen::Isometry3d& T_previous_current, d
 }
 
 }  // namespace
+
+PointCloud sweep_motion_input(const PointCloud& cloud, const SweepMotionConfig& config) {
+  PointCloud out;
+  if (!cloud.has_time()) return out;
+  const std::size_t stride = input_stride(cloud.size(), config.max_input_points);
+  out.points.reserve(cloud.size() / stride + 1);
+  out.time.reserve(cloud.size() / stride + 1);
+  for (std::size_t i = 0; i < cloud.size(); i += stride) {
+    out.points.push_back(cloud.points[i]);
+    out.time.push_back(cloud.time[i]);
+  }
+  return out;
+}
 
 GicpConfig SweepMotionConfig::default_gicp() {
   GicpConfig g;

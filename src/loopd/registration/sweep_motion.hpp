@@ -56,6 +56,10 @@ struct SweepMotionResult {
   std::string reason;
 };
 
+/// @brief The points (with their times) of `cloud` that estimate_sweep_motion reads: every stride-th, at most
+///        max_input_points. A scan kept only as the next sweep's reference needs no more than this.
+PointCloud sweep_motion_input(const PointCloud& cloud, const SweepMotionConfig& config);
+
 /// @brief The motion between two consecutive sweeps' stamps, measured by registering `current` onto `previous`, each
 ///        deskewed as if the sensor moved at the constant velocity of that motion, on the path deskew() interpolates
 ///        between the two stamps' poses: at tau [s] after the previous stamp it was at interpolate(I, T_previous_current,
