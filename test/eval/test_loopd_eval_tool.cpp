@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <unistd.h>
@@ -240,7 +241,8 @@ TEST_CASE("loopd-eval binary: same figures from LCM logs, JSON as the last line,
   }
   const std::string out = (dir / "stdout.txt").string();
   const std::string cmd = bin + " --drive " + drive + " --results " + results + " --json --quiet --plots " + (dir / "plots").string() +
-                          " --export-tum " + (dir / "tum").string() + " > " + out + " 2> " + (dir / "stderr.txt").string();
+                          " --export-tum " + (dir / "tum").string() + " --export-loops " + (dir / "loops.csv").string() + " > " + out + " 2> " +
+                          (dir / "stderr.txt").string();
   REQUIRE(std::system(cmd.c_str()) == 0);
   std::ifstream f(out);
   std::string line, last;
@@ -261,6 +263,24 @@ TEST_CASE("loopd-eval binary: same figures from LCM logs, JSON as the last line,
   CHECK(j["scans"].get<int>() == 300);
   CHECK(j["timings"]["total"]["max"].get<double>() == Approx(700.0));
   CHECK(fs::exists(dir / "tum" / "corrected.tum"));
+  // --export-loops: a line per accepted loop, the error figures' inputs (the worst is the 81 m one).
+  std::ifstream loops_csv(dir / "loops.csv");
+  std::getline(loops_csv, line);
+  CHECK(line.rfind("event_id,query_utime,match_utime,", 0) == 0);
+  int rows = 0, correct_rows = 0;
+  double worst = 0.0;
+  while (std::getline(loops_csv, line)) {
+    std::vector<std::string> cells;
+    std::stringstream cells_in(line);
+    for (std::string cell; std::getline(cells_in, cell, ',');) cells.push_back(cell);
+    REQUIRE(cells.size() == 10);
+    ++rows;
+    correct_rows += cells[9] == "1" ? 1 : 0;
+    worst = std::max(worst, std::stod(cells[7]));
+  }
+  CHECK(rows == j["accepted"].get<int>());
+  CHECK(correct_rows == j["correct"].get<int>());
+  CHECK(worst == Approx(std::hypot(81.0, 0.5)));
   if (j["pictures"].empty()) {
     WARN("no pictures: gnuplot missing? " << j["warnings"].dump());
   } else {

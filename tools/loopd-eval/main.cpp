@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <optional>
 
@@ -57,6 +58,27 @@ bool export_trajectories(const std::string& dir, const EvalReport& rep, bool kit
     }
   }
   return true;
+}
+
+/// @brief One CSV line per accepted loop with ground truth at both ends: where it lies and how far its T_match_query is
+///        from the truth (the lines behind loop_translation_error_* and loop_rotation_error_*).
+bool export_loop_errors(const std::string& path, const EvalInput& input, const EvalReport& rep, std::string* error) {
+  std::ofstream out(path);
+  if (!out) {
+    *error = "cannot write " + path;
+    return false;
+  }
+  out << "event_id,query_utime,match_utime,query_keyframe,match_keyframe,frame_gap,gt_distance_m,translation_error_m,rotation_error_deg,correct\n";
+  out.precision(9);
+  for (const LoopCheck& c : rep.checks) {
+    const LoopRecord& l = input.loops[c.loop];
+    if (!c.has_ground_truth || l.status != LoopStatus::kAccepted) continue;
+    out << l.event_id << ',' << l.query_utime << ',' << l.match_utime << ',' << c.query_keyframe << ',' << c.match_keyframe << ',' << c.frame_gap
+        << ',' << c.gt_distance << ',' << c.translation_error << ',' << c.rotation_error_deg << ',' << (c.correct ? 1 : 0) << '\n';
+  }
+  out.flush();
+  if (!out) *error = "writing " + path + " failed";
+  return static_cast<bool>(out);
 }
 
 /// @brief Reads every drive log (in the order given) and every results log into `input`; false after printing why.
@@ -219,7 +241,7 @@ nlohmann::json report_json(const EvalReport& rep, const LogReadStats& drive_stat
 int main(int argc, char** argv) {
   CLI::App app{"loopd-eval: loop detection, loop closure and pose error of loopd's output against ground truth"};
   std::vector<std::string> drives, results;
-  std::string plots_dir, tum_dir, kitti_dir;
+  std::string plots_dir, tum_dir, kitti_dir, loops_csv;
   bool json = false, quiet = false;
   EvalConfig config;
   EvalChannels ch;
@@ -244,6 +266,7 @@ int main(int argc, char** argv) {
   app.add_option("--plots", plots_dir, "write trajectories and PR-curve pictures (PNG + SVG) into this folder");
   app.add_option("--export-tum", tum_dir, "write ground truth, odometry and corrected keyframe trajectories (TUM)");
   app.add_option("--export-kitti", kitti_dir, "same in KITTI format (12 numbers a line)");
+  app.add_option("--export-loops", loops_csv, "write one CSV line per accepted loop: its keyframes, frame gap and error against ground truth");
   app.add_option("--loop-distance", config.ground_truth.max_distance, "[m] ground-truth loop: closer than this")->capture_default_str();
   app.add_option("--min-frame-gap", config.ground_truth.min_frame_gap, "ground-truth loop: more than this many scans apart")->capture_default_str();
   app.add_flag("--planar", config.ground_truth.planar, "measure loop distances in the ground plane (x, y), not 3D");
@@ -298,6 +321,7 @@ int main(int argc, char** argv) {
     std::string eerr;
     if (!export_trajectories(dir, rep, kitti, &eerr)) warnings.push_back("export failed: " + eerr);
   }
+  if (std::string lerr; !loops_csv.empty() && !export_loop_errors(loops_csv, input, rep, &lerr)) warnings.push_back("export failed: " + lerr);
 
   const auto& d = rep.detection;
   const auto& c = rep.closure;
