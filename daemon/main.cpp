@@ -60,10 +60,11 @@ void print_summary(const loopd::RunSummary& s, bool replay) {
                  "a sweep too long)\n",
                  static_cast<long long>(e.keyframes_deskewed), e.deskew_max_correction, static_cast<long long>(e.deskew_skipped));
   if (e.sweeps_from_scans + e.sweeps_from_odometry > 0)
-    std::fprintf(
-        stderr,
-        "loopd: deskew: %lld sweeps with the motion their scans measured, %lld with the odometry's (the scans disagreed or did not register)\n",
-        static_cast<long long>(e.sweeps_from_scans), static_cast<long long>(e.sweeps_from_odometry));
+    std::fprintf(stderr,
+                 "loopd: deskew: %lld sweeps with the motion their scans measured (%lld where the motion changed between two sweeps), %lld with the "
+                 "odometry's (the scans disagreed or did not register)\n",
+                 static_cast<long long>(e.sweeps_from_scans), static_cast<long long>(e.sweeps_velocity_changed),
+                 static_cast<long long>(e.sweeps_from_odometry));
   if (e.keyframes_submapped > 0)
     std::fprintf(stderr, "loopd: submaps: %lld keyframes of a narrow or sparse sensor built from %.1f scans each on average (submap.*)\n",
                  static_cast<long long>(e.keyframes_submapped), static_cast<double>(e.submap_scans) / static_cast<double>(e.keyframes_submapped));

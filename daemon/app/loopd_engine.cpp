@@ -165,6 +165,9 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     residual_since_keyframe_ += s.residual_sum;
     // The scan before a keyframe measures the keyframe's sweep motion with it (deskew_from_scans).
     std::shared_ptr<const WindowScan> previous = std::move(previous_scan_);
+    // The odometry's pose at the scan before that one: the previous sweep's own motion.
+    const StampedPose before_previous = pose_before_previous_;
+    pose_before_previous_ = previous ? StampedPose{previous->utime, previous->T_odom_sensor, 0.0} : StampedPose{};
     bool timed = sweeps_from_scans && s.cloud.has_time();
     // A narrow or sparse sensor: every scan is kept a moment for the next keyframe's submap.
     const bool narrow = scan_window_.update_mode(needs_submap(s.cloud, config_.submap));
@@ -217,6 +220,7 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     residual_since_keyframe_ = 0.0;
     job.T_odom_scan = s.pose.T_world_sensor;
     job.previous = std::move(previous);
+    job.before_previous = before_previous;
     if (narrow) {
       job.submap = scan_window_.recent(s.utime, s.pose.T_world_sensor);
       keep_for_submaps(s);  // a copy: the keyframe's scan belongs to the next keyframes' windows too
@@ -377,10 +381,18 @@ std::vector<StampedPose> LoopdEngine::sweep_poses_from_scans(const Job& job) {
   for (const StampedPose& p : job.sweep_poses)
     if (p.utime > job.sweep_begin && p.utime < job.sweep_end) return {};
   const Eigen::Isometry3d odometry_T_previous_current = prev->T_odom_sensor.inverse() * job.T_odom_scan;
-  const SweepMotionResult m = estimate_sweep_motion(prev->cloud, job.cloud, dt, odometry_T_previous_current, config_.sweep_motion);
+  std::optional<SweepIncrement> odometry_previous_sweep;
+  if (job.before_previous.utime != 0) {
+    const double dt_previous = static_cast<double>(prev->utime - job.before_previous.utime) * 1e-6;
+    if (dt_previous > 0.0 && dt_previous <= config_.deskew.max_pose_gap)
+      odometry_previous_sweep = SweepIncrement{job.before_previous.T_world_sensor.inverse() * prev->T_odom_sensor, dt_previous};
+  }
+  const SweepMotionResult m =
+      estimate_sweep_motion(prev->cloud, job.cloud, dt, odometry_T_previous_current, config_.sweep_motion, odometry_previous_sweep);
   {
     std::lock_guard<std::mutex> s(stats_mutex_);
     ++(m.refined ? stats_.sweeps_from_scans : stats_.sweeps_from_odometry);
+    if (m.refined && m.velocity_changed) ++stats_.sweeps_velocity_changed;
   }
   if (!m.refined) return {};
   StampedPose a, b;

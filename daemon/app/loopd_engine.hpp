@@ -105,22 +105,23 @@ struct EngineStats {
   int pending_scans = 0;
   std::int64_t loops_accepted = 0, loops_rejected = 0;
   std::int64_t bytes_per_keyframe = 0;
-  std::int64_t cached_feature_bytes = 0;  ///< with the map store keeping features: bytes in the LRU cache
-  std::int64_t scans_lost_estimate = 0;   ///< scans that never arrived (ScanLossEstimator)
-  double scan_loss_fraction = 0.0;        ///< lost / (received + lost)
-  std::int64_t clock_jumps = 0;           ///< data clock jumps followed (scan or pose channel, whichever saw more)
-  std::int64_t odometry_resets = 0;       ///< odometry resets bridged (OdometryResetFilter)
-  std::int64_t sensor_changes = 0;        ///< sensor layout changes (SensorLayoutWatch)
-  std::int64_t keyframes_deskewed = 0;    ///< keyframe scans motion-compensated from their per-point times
-  std::int64_t keyframes_submapped = 0;   ///< keyframes whose cloud merged earlier scans (narrow or sparse sensor, submap.*)
-  std::int64_t submap_scans = 0;          ///< earlier scans merged into those keyframes, in all
-  std::int64_t deskew_skipped = 0;        ///< keyframe scans with times left as they were: poses do not cover the sweep, or too long a sweep
-  std::int64_t session = 0;               ///< the session this run's keyframes go to now
-  std::int64_t sessions_opened = 0;       ///< sessions this run opened (another drive, an odometry reset)
-  std::int64_t keyframes_skipped = 0;     ///< scans recognised as keyframes the map holds (a replay rerun) and skipped
-  double deskew_max_correction = 0.0;     ///< [m] largest distance deskew moved a point
-  std::int64_t sweeps_from_scans = 0;     ///< keyframes deskewed with the motion their scans measured (deskew.from_scans)
-  std::int64_t sweeps_from_odometry = 0;  ///< keyframes that tried and kept the odometry's motion (scans disagreed, did not register)
+  std::int64_t cached_feature_bytes = 0;     ///< with the map store keeping features: bytes in the LRU cache
+  std::int64_t scans_lost_estimate = 0;      ///< scans that never arrived (ScanLossEstimator)
+  double scan_loss_fraction = 0.0;           ///< lost / (received + lost)
+  std::int64_t clock_jumps = 0;              ///< data clock jumps followed (scan or pose channel, whichever saw more)
+  std::int64_t odometry_resets = 0;          ///< odometry resets bridged (OdometryResetFilter)
+  std::int64_t sensor_changes = 0;           ///< sensor layout changes (SensorLayoutWatch)
+  std::int64_t keyframes_deskewed = 0;       ///< keyframe scans motion-compensated from their per-point times
+  std::int64_t keyframes_submapped = 0;      ///< keyframes whose cloud merged earlier scans (narrow or sparse sensor, submap.*)
+  std::int64_t submap_scans = 0;             ///< earlier scans merged into those keyframes, in all
+  std::int64_t deskew_skipped = 0;           ///< keyframe scans with times left as they were: poses do not cover the sweep, or too long a sweep
+  std::int64_t session = 0;                  ///< the session this run's keyframes go to now
+  std::int64_t sessions_opened = 0;          ///< sessions this run opened (another drive, an odometry reset)
+  std::int64_t keyframes_skipped = 0;        ///< scans recognised as keyframes the map holds (a replay rerun) and skipped
+  double deskew_max_correction = 0.0;        ///< [m] largest distance deskew moved a point
+  std::int64_t sweeps_from_scans = 0;        ///< keyframes deskewed with the motion their scans measured (deskew.from_scans)
+  std::int64_t sweeps_from_odometry = 0;     ///< keyframes that tried and kept the odometry's motion (scans disagreed, did not register)
+  std::int64_t sweeps_velocity_changed = 0;  ///< of sweeps_from_scans: the previous sweep at its own velocity (the odometry's changed)
   std::string device;
 };
 
@@ -180,6 +181,7 @@ class LoopdEngine {
     Eigen::Isometry3d T_odom_scan = Eigen::Isometry3d::Identity();  ///< the scan's odometry pose as received (submap frame)
     std::vector<std::shared_ptr<const WindowScan>> submap;          ///< earlier scans to merge (narrow or sparse sensor)
     std::shared_ptr<const WindowScan> previous;                     ///< the scan before it, for the sweep's motion (deskew_from_scans)
+    StampedPose before_previous;                  ///< the odometry's pose at the scan before `previous` (its sweep's motion); utime 0: none
     std::shared_ptr<const WindowScan> raw;        ///< the scan, when shared as the next one's `previous`: the worker copies it into cloud
     std::int64_t sweep_begin = 0, sweep_end = 0;  ///< [us] the first and last point time (the scan's utime without times)
   };
@@ -261,6 +263,7 @@ class LoopdEngine {
   std::atomic<std::int64_t> sequential_steps_{0};
 
   ScanWindow scan_window_;                           ///< (ingest thread) recent scans of a narrow or sparse sensor
+  StampedPose pose_before_previous_;                 ///< (ingest thread) the odometry pose of the scan before previous_scan_; utime 0: none
   std::shared_ptr<const WindowScan> previous_scan_;  ///< (ingest thread) the last scan with per-point times (deskew_from_scans)
   mutable std::mutex stats_mutex_;
   std::string sensor_logged_;  ///< (under stats_mutex_) the last logged sensor layout's rings or rows

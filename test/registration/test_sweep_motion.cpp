@@ -151,3 +151,49 @@ TEST_CASE("the sweep's motion keeps the odometry's where the scans cannot say or
   CHECK_FALSE(r.refined);
   CHECK(r.reason.find("voxel_size") != std::string::npos);
 }
+
+TEST_CASE("at a turn's onset the previous sweep is deskewed at its own turn rate from the odometry", "[registration][sweep_motion]") {
+  // Straight at 10 m/s through the previous sweep, then the 30 deg/s arc from the previous stamp on: the turn rate
+  // steps by 3 deg per sweep, so one constant velocity over both sweeps fits neither.
+  loopd::Town town = loopd::make_town(1);
+  const Eigen::Isometry3d T0 = loopd::street_pose(town, 0, 0, 0, 25.0);
+  const auto straight = [](double t) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(10.0 * t, 0.0, 0.0);
+    return T;
+  };
+  const loopd::LidarModel model = loopd::lidar_model_hdl64();
+  loopd::SensorEffects fx = loopd::SensorEffects::none();
+  fx.motion_skew = true;
+  fx.point_times = true;
+  const loopd::PointCloud previous = loopd::simulate_sweep(
+      town, model, [&](double t) { return T0 * straight(t); }, kPeriod, fx, 1, 2);
+  const loopd::PointCloud current = loopd::simulate_sweep(
+      town, model, [&](double t) { return T0 * motion(kPeriod + t); }, kPeriod, fx, 2, 2);
+  const Eigen::Isometry3d truth = motion(kPeriod);
+  const loopd::SweepIncrement previous_sweep{straight(-kPeriod).inverse() * straight(0.0), kPeriod};
+  const Eigen::Isometry3d odometry = noisy(truth);
+
+  const loopd::SweepMotionResult constant = loopd::estimate_sweep_motion(previous, current, kPeriod, odometry, loopd::SweepMotionConfig{});
+  const loopd::SweepMotionResult changed =
+      loopd::estimate_sweep_motion(previous, current, kPeriod, odometry, loopd::SweepMotionConfig{}, previous_sweep);
+  INFO(constant.reason << " / " << changed.reason);
+  REQUIRE(changed.refined);
+  CHECK(changed.velocity_changed);
+  CHECK_FALSE(constant.velocity_changed);
+  const Eigen::Isometry3d error_changed = truth.inverse() * changed.T_previous_current;
+  const Eigen::Isometry3d error_constant = truth.inverse() * constant.T_previous_current;
+  CAPTURE(rotation_deg(error_changed), rotation_deg(error_constant), error_changed.translation().norm(), error_constant.translation().norm());
+  // What remains is the current sweep deskewed under the odometry's noisy increment for the one round (0.3 deg).
+  CHECK(rotation_deg(error_changed) < 0.25);
+  CHECK(rotation_deg(error_changed) < 0.2 * rotation_deg(error_constant));
+  CHECK(error_changed.translation().norm() < 0.25 * error_constant.translation().norm());
+  WARN("turn onset: rotation error " << rotation_deg(error_changed) << " deg (one velocity over both sweeps: " << rotation_deg(error_constant)
+                                     << "), translation " << error_changed.translation().norm() << " m (" << error_constant.translation().norm()
+                                     << ")");
+
+  // Below min_velocity_change_deg (the odometry's step noise) both sweeps share the estimate's velocity.
+  loopd::SweepMotionConfig deaf;
+  deaf.min_velocity_change_deg = 5.0;
+  CHECK_FALSE(loopd::estimate_sweep_motion(previous, current, kPeriod, odometry, deaf, previous_sweep).velocity_changed);
+}

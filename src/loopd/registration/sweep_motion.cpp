@@ -77,15 +77,18 @@ TimedVoxels timed_voxels(const PointCloud& cloud, const SweepMotionConfig& confi
 /// deskew() interpolates between two poses: P(tau) = interpolate(I, T_previous_current, tau / dt) in the previous
 /// stamp's frame (translation on a line, rotation at a constant rate), tau [s] after the previous stamp. A point of the
 /// previous sweep at time t was seen from P(t); one of the current sweep from T_previous_current^-1 P(dt + t).
+/// The previous sweep's own motion, when it differed, is `velocity` (its increment over velocity_dt) instead.
 void deskew(const TimedVoxels& v, const Eigen::Isometry3d& T_previous_current, double dt, bool current, std::vector<Eigen::Vector3f>* points,
-            std::vector<Eigen::Vector3f>* normals) {
+            std::vector<Eigen::Vector3f>* normals, const std::optional<SweepIncrement>& velocity = std::nullopt) {
   const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
   const Eigen::Isometry3d T_current_previous = T_previous_current.inverse();
+  const Eigen::Isometry3d& T_rate = velocity && !current ? velocity->T_start_end : T_previous_current;
+  const double rate_dt = velocity && !current ? velocity->dt : dt;
   points->resize(v.points.size());
   normals->resize(v.points.size());
   for (std::size_t i = 0; i < v.points.size(); ++i) {
     const double tau = (current ? dt : 0.0) + v.time[i];
-    const Eigen::Isometry3d P = interpolate_screw(I, T_previous_current, tau / dt);
+    const Eigen::Isometry3d P = interpolate_screw(I, T_rate, tau / rate_dt);
     const Eigen::Isometry3f T = (current ? T_current_previous * P : P).cast<float>();
     (*points)[i] = T * v.points[i];
     (*normals)[i] = T.linear() * v.normals[i];
@@ -122,13 +125,15 @@ std::optional<std::string> SweepMotionConfig::validate() const {
   if (rounds < 1 || rounds > 10) return "rounds must be in [1, 10]";
   if (!(max_translation_change > 0.0) || !(max_rotation_change_deg > 0.0)) return "max_translation_change and max_rotation_change_deg must be > 0";
   if (!(max_degeneracy >= 1.0)) return "max_degeneracy must be >= 1";
+  if (!(min_velocity_change_deg >= 0.0)) return "min_velocity_change_deg must be >= 0";
   if (!(min_fitness >= 0.0 && min_fitness <= 1.0)) return "min_fitness must be in [0, 1]";
   if (auto e = gicp.validate()) return "gicp: " + *e;
   return std::nullopt;
 }
 
 SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointCloud& current, double dt,
-                                        const Eigen::Isometry3d& odometry_T_previous_current, const SweepMotionConfig& config) {
+                                        const Eigen::Isometry3d& odometry_T_previous_current, const SweepMotionConfig& config,
+                                        const std::optional<SweepIncrement>& odometry_previous_sweep) {
   Stopwatch sw;
   SweepMotionResult r;
   r.T_previous_current = odometry_T_previous_current;
@@ -146,11 +151,25 @@ SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointC
   const TimedVoxels cur = timed_voxels(current, config);
   constexpr std::size_t kMinVoxels = 50;
   if (prev.points.size() < kMinVoxels || cur.points.size() < kMinVoxels) return give_up("too few points in range");
+  // The odometry's change of turn rate between the sweeps, when it is more than its step noise.
+  std::optional<Eigen::Isometry3d> change;
+  if (odometry_previous_sweep && odometry_previous_sweep->dt > 0.0) {
+    Eigen::Isometry3d c = Eigen::Isometry3d::Identity();
+    c.linear() = odometry_T_previous_current.linear().transpose() * odometry_previous_sweep->T_start_end.linear();
+    if (rotation_angle(c) * 180.0 / kPi > config.min_velocity_change_deg) change = c;
+  }
+  r.velocity_changed = change.has_value();
   Eigen::Isometry3d T = odometry_T_previous_current;
   std::vector<Eigen::Vector3f> source, source_normals, target, target_normals;
   for (int round = 0; round < config.rounds; ++round) {
+    std::optional<SweepIncrement> previous_velocity;
+    if (change) {  // the odometry's own rotation over the previous sweep (its noise once, not the difference's twice)
+      Eigen::Isometry3d V = T;
+      V.linear() = odometry_previous_sweep->T_start_end.linear();
+      previous_velocity = SweepIncrement{V, odometry_previous_sweep->dt};
+    }
     deskew(cur, T, dt, true, &source, &source_normals);
-    deskew(prev, T, dt, false, &target, &target_normals);
+    deskew(prev, T, dt, false, &target, &target_normals, previous_velocity);
     const GicpResult g = align_gicp(source, source_normals, target, target_normals, T, config.gicp);
     r.iterations += g.iterations;
     r.fitness = g.fitness;

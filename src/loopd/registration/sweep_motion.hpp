@@ -33,13 +33,24 @@ struct SweepMotionConfig {
   /// Above this translational condition number of the registration (gicp_degeneracy) only the scans' rotation is
   /// taken, the odometry's translation kept: a translation error moves a point by itself, a rotation error by itself
   /// times the range, so the rotation is what deskew needs most.
-  double max_degeneracy = 10.0;  ///< inlier share GICP must reach (within its last correspondence distance)
+  double max_degeneracy = 10.0;
+  /// The previous sweep is deskewed at the velocity being estimated unless the odometry's rotations over the two
+  /// sweeps differ by more than this (a turn's onset or end); then at that velocity with the odometry's rotation over
+  /// the previous sweep. Only the rotation: the odometry's translation steps are noisier than a vehicle's change of
+  /// speed in 0.1 s, and a rotation error weighs by the range. [deg] per sweep.
+  double min_velocity_change_deg = 0.5;
   GicpConfig gicp = default_gicp();
 
   /// @brief GICP at 1 m voxels: 1.0 / 0.5 m correspondence stages, 1500 source points, one thread (the keyframe
   ///        workers already run in parallel).
   static GicpConfig default_gicp();
   std::optional<std::string> validate() const;
+};
+
+/// @brief A motion over one sweep: the pose at its end in the frame of its start, and the time between them.
+struct SweepIncrement {
+  Eigen::Isometry3d T_start_end = Eigen::Isometry3d::Identity();
+  double dt = 0.0;  ///< [s]
 };
 
 /// @brief What estimate_sweep_motion found.
@@ -49,9 +60,10 @@ struct SweepMotionResult {
   double translation_change = 0.0;                                       ///< [m] from the odometry's increment
   double rotation_change_deg = 0.0;                                      ///< [deg]
   double fitness = 0.0;
-  bool rotation_only = false;  ///< refined, but the translation is the odometry's (degenerate registration)
-  double degeneracy = -1.0;    ///< gicp_degeneracy of the last registration (large: a direction the scans do not fix)
-  int iterations = 0;          ///< GICP iterations over all rounds
+  bool rotation_only = false;     ///< refined, but the translation is the odometry's (degenerate registration)
+  bool velocity_changed = false;  ///< the previous sweep was deskewed at its own velocity (the odometry's changed)
+  double degeneracy = -1.0;       ///< gicp_degeneracy of the last registration (large: a direction the scans do not fix)
+  int iterations = 0;             ///< GICP iterations over all rounds
   double ms = 0.0;
   std::string reason;
 };
@@ -67,7 +79,10 @@ PointCloud sweep_motion_input(const PointCloud& cloud, const SweepMotionConfig& 
 ///        own scan's stamp). Both clouds need per-point times.
 /// @param dt [s] from the previous stamp to the current one (> 0)
 /// @param odometry_T_previous_current the odometry's increment: the first estimate and the check on the result
+/// @param odometry_previous_sweep the odometry's increment over the previous sweep, when known: where it differs from
+///        odometry_T_previous_current in rotation (min_velocity_change_deg), the previous sweep turned at its rate
 SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointCloud& current, double dt,
-                                        const Eigen::Isometry3d& odometry_T_previous_current, const SweepMotionConfig& config);
+                                        const Eigen::Isometry3d& odometry_T_previous_current, const SweepMotionConfig& config,
+                                        const std::optional<SweepIncrement>& odometry_previous_sweep = std::nullopt);
 
 }  // namespace loopd
