@@ -228,6 +228,17 @@ void bind_stage_configs(Binder& b, LoopDetectorConfig& d) {
   b.field("correction.graph.odometry_rotation_sigma", c.graph.odometry_rotation_sigma);
   b.field("correction.graph.max_iterations", c.graph.max_iterations);
   b.field("correction.graph.max_nodes", c.graph.max_nodes);
+  b.field("correction.graph.max_loop_information", c.graph.max_loop_information);
+  b.field("correction.graph.min_loop_information", c.graph.min_loop_information);
+  b.field("correction.graph.reduce_chains", c.graph.reduce_chains);
+  b.field("correction.steps.enabled", d.steps.enabled);
+  b.field("correction.steps.max_translation_change", d.steps.max_translation_change);
+  b.field("correction.steps.max_rotation_change_deg", d.steps.max_rotation_change_deg);
+  b.field("correction.steps.min_fitness", d.steps.min_fitness);
+  b.field("correction.steps.max_degeneracy", d.steps.max_degeneracy);
+  b.field("correction.steps.translation_sigma", d.steps.translation_sigma);
+  b.field("correction.steps.rotation_sigma", d.steps.rotation_sigma);
+  b.field("correction.steps.tilt_from_odometry", d.steps.tilt_from_odometry);
   b.field("correction.graph.use_plane_constraints", c.graph.use_plane_constraints);
   b.field("correction.graph.plane_cell_size", d.plane_cell_size);
 }

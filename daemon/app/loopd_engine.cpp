@@ -477,6 +477,8 @@ void LoopdEngine::run_sequential(ReadyKeyframe& item) {
   stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
   stats_.loops_accepted = detector_.loops_accepted();
   stats_.loops_rejected = detector_.loops_rejected();
+  stats_.steps_measured = detector_.steps_measured();
+  stats_.steps_refused = detector_.steps_refused();
   stats_.bytes_per_keyframe = static_cast<std::int64_t>(detector_.bytes_per_keyframe());
   stats_.cached_feature_bytes = static_cast<std::int64_t>(detector_.cached_feature_bytes());
   T_map_odom_ = detector_.T_map_odom();

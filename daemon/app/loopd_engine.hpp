@@ -104,6 +104,8 @@ struct EngineStats {
   int queue_depth = 0;
   int pending_scans = 0;
   std::int64_t loops_accepted = 0, loops_rejected = 0;
+  std::int64_t steps_measured = 0;  ///< keyframe steps measured by the scans (correction.steps)
+  std::int64_t steps_refused = 0;   ///< keyframe steps left to the odometry: the registration was not believed
   std::int64_t bytes_per_keyframe = 0;
   std::int64_t cached_feature_bytes = 0;     ///< with the map store keeping features: bytes in the LRU cache
   std::int64_t scans_lost_estimate = 0;      ///< scans that never arrived (ScanLossEstimator)

@@ -51,6 +51,7 @@ Eigen::Isometry3d LoopCorrector::T_map_odom() const {
 
 PoseIndex LoopCorrector::add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual) {
   const Eigen::Isometry3d T_map_odom_now = T_map_odom();
+  if (!measured_.empty()) measured_.push_back(measured_.back() * (odometry_.back().inverse() * T_odom_sensor));
   odometry_.push_back(T_odom_sensor);
   residuals_.push_back(residual);
   corrected_.push_back(T_map_odom_now * T_odom_sensor);
@@ -66,6 +67,18 @@ PoseIndex LoopCorrector::add_keyframe(const Eigen::Isometry3d& T_odom_sensor, do
   return index;
 }
 
+PoseIndex LoopCorrector::add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual, const Information6d& step_information,
+                                      const Eigen::Isometry3d& T_previous_this) {
+  const PoseIndex index = add_keyframe(T_odom_sensor, residual, step_information);
+  if (index == 0) return index;
+  const auto i = static_cast<std::size_t>(index);
+  if (measured_.empty()) measured_ = odometry_;
+  measured_[i] = measured_[i - 1] * T_previous_this;
+  corrected_[i] = corrected_[i - 1] * T_previous_this;
+  ++measured_steps_;
+  return index;
+}
+
 PoseIndex LoopCorrector::add_segment_start(const Eigen::Isometry3d& T_odom_sensor) {
   const PoseIndex index = add_keyframe(T_odom_sensor, 0.0);
   if (index == 0) return index;  // the first keyframe starts the first segment anyway
@@ -76,7 +89,7 @@ PoseIndex LoopCorrector::add_segment_start(const Eigen::Isometry3d& T_odom_senso
 }
 
 std::vector<double> LoopCorrector::heuristic_weights() const {
-  std::vector<double> weights = edge_weights(odometry_, residuals_, config_.heuristic);
+  std::vector<double> weights = edge_weights(chain_poses(), residuals_, config_.heuristic);
   // A segment join takes (almost) all of a loop's error: the segment after it moves rigidly onto the loop.
   double total = 0.0;
   for (double w : weights) total += w;
@@ -86,7 +99,7 @@ std::vector<double> LoopCorrector::heuristic_weights() const {
 }
 
 CorrectionResult LoopCorrector::run_graph(std::vector<Eigen::Isometry3d> warm, CorrectionResult r) {
-  const PoseGraphResult g = optimize_pose_graph(odometry_, residuals_, loops_, warm, config_.graph, planes_, step_information_, segment_starts_);
+  const PoseGraphResult g = optimize_pose_graph(chain_poses(), residuals_, loops_, warm, config_.graph, planes_, step_information_, segment_starts_);
   r.ms_graph = g.ms;
   r.graph_iterations = g.iterations;
   r.graph_converged = g.converged;
@@ -185,14 +198,14 @@ CorrectionResult LoopCorrector::recorrect_all() {
   r.method = config_.method;
   r.num_loops = static_cast<int>(loops_.size());
   Stopwatch watch;
-  std::vector<Eigen::Isometry3d> warm = odometry_;
+  std::vector<Eigen::Isometry3d> warm = chain_poses();
   closed_spans_.clear();
   max_end_index_ = -1;
   for (const auto& l : loops_) {
     max_end_index_ = std::max(max_end_index_, std::max(l.query_index, l.match_index));
     closed_spans_.emplace_back(std::min(l.query_index, l.match_index), std::max(l.query_index, l.match_index));
   }
-  if (config_.method != CorrectionMethod::kGraph) warm = correct_heuristic_all(odometry_, residuals_, loops_, config_.heuristic);
+  if (config_.method != CorrectionMethod::kGraph) warm = correct_heuristic_all(chain_poses(), residuals_, loops_, config_.heuristic);
   r.ms_heuristic = watch.ms();
   if (config_.method == CorrectionMethod::kHeuristic) {
     corrected_ = std::move(warm);

@@ -91,6 +91,11 @@ class LoopCorrector {
   /// @brief Same, with the information (core/information.hpp) of the odometry step ending here (e.g. from the covariance in
   /// pose_t); the graph then uses it instead of the residual-based sigma for that edge. Zero = unknown.
   PoseIndex add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual, const Information6d& step_information);
+  /// @brief Same, with the step from the previous keyframe measured by the scans (registration/keyframe_step.hpp):
+  /// T_previous_this and its information replace the odometry's step in every correction, and the keyframe is placed
+  /// by it (corrected previous * T_previous_this). The first keyframe has no step (it is added as by odometry).
+  PoseIndex add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual, const Information6d& step_information,
+                         const Eigen::Isometry3d& T_previous_this);
 
   /// @brief Appends the first keyframe of a new odometry segment (another session, or the same drive after its
   /// odometry restarted): nothing is known about the step from the previous keyframe. T_odom_sensor must continue the
@@ -124,6 +129,11 @@ class LoopCorrector {
 
   const std::vector<Eigen::Isometry3d>& corrected_poses() const { return corrected_; }
   const std::vector<Eigen::Isometry3d>& odometry_poses() const { return odometry_; }
+  /// @brief The trajectory the corrections start from: the odometry poses with every measured step (add_keyframe with
+  ///        T_previous_this) in place of the odometry's; the odometry poses themselves while no step is measured.
+  const std::vector<Eigen::Isometry3d>& chain_poses() const { return measured_.empty() ? odometry_ : measured_; }
+  /// @brief Steps measured by the scans so far.
+  std::int64_t measured_steps() const { return measured_steps_; }
   const std::vector<double>& residuals() const { return residuals_; }
   const std::vector<LoopConstraint>& loops() const { return loops_; }
   std::size_t size() const { return odometry_.size(); }
@@ -148,6 +158,8 @@ class LoopCorrector {
 
   LoopCorrectorConfig config_;
   std::vector<Eigen::Isometry3d> odometry_;
+  std::vector<Eigen::Isometry3d> measured_;  ///< chain_poses(): empty until a step is measured
+  std::int64_t measured_steps_ = 0;
   std::vector<double> residuals_;
   std::vector<Eigen::Isometry3d> corrected_;
   std::vector<LoopConstraint> loops_;

@@ -19,6 +19,7 @@ std::optional<std::string> LoopDetectorConfig::validate() const {
   if (auto e = m2dp.validate()) return "m2dp: " + *e;
   if (auto e = verify.validate()) return "verify: " + *e;
   if (auto e = correction.validate()) return "correction: " + *e;
+  if (auto e = steps.validate()) return "steps: " + *e;
   if (!(max_descriptor_distance > 0.0)) return "max_descriptor_distance must be > 0";
   if (!(small_scene_scale >= 0.0 && std::isfinite(small_scene_scale))) return "verify.small_scene_scale must be >= 0 [m]";
   if (!(max_prior_rotation_deg > 0.0 && max_prior_rotation_deg <= 180.0)) return "verify.max_prior_rotation_deg must be in (0, 180]";
@@ -316,7 +317,22 @@ std::optional<CorrectionOutput> LoopDetector::final_correction() {
   return c;
 }
 
-Eigen::Isometry3d LoopDetector::enter_pose_sequence(const KeyframeInput& input) {
+std::optional<KeyframeStep> LoopDetector::measure_step(const KeyframeFeatures* features, const Eigen::Isometry3d& T_continuous_sensor) {
+  if (!config_.steps.enabled || !features || keyframes_.empty() || !keyframes_.newest().features) return std::nullopt;
+  const std::shared_ptr<const KeyframeFeatures> previous = full_features(keyframes_.newest());
+  if (!previous || previous->prepared.points.empty() || features->prepared.points.empty()) return std::nullopt;
+  const Eigen::Isometry3d odometry_step = corrector_.odometry_poses().back().inverse() * T_continuous_sensor;
+  const Eigen::Matrix3d R_odom_previous = corrector_.odometry_poses().back().linear();
+  KeyframeStep step = measure_keyframe_step(previous->prepared.points, previous->prepared.unpacked_normals(), features->prepared.points,
+                                            features->prepared.unpacked_normals(), odometry_step, config_.steps, &R_odom_previous);
+  if (!step.measured) {
+    ++steps_refused_;
+    return std::nullopt;
+  }
+  return step;
+}
+
+Eigen::Isometry3d LoopDetector::enter_pose_sequence(const KeyframeInput& input, const KeyframeFeatures* features) {
   // One pose sequence for every session: a new session is stitched on where the last keyframe lay (SessionFrames) and
   // its join carries no odometry, so only loops place it.
   const bool first = corrector_.size() == 0;
@@ -327,7 +343,9 @@ Eigen::Isometry3d LoopDetector::enter_pose_sequence(const KeyframeInput& input) 
     pose_index_[input.key] = corrector_.add_segment_start(placed.T_continuous_sensor);
   } else {
     if (!first) travelled_ += (T_previous.inverse() * placed.T_continuous_sensor).translation().norm();
-    pose_index_[input.key] = corrector_.add_keyframe(placed.T_continuous_sensor, input.residual);
+    const std::optional<KeyframeStep> step = first ? std::nullopt : measure_step(features, placed.T_continuous_sensor);
+    pose_index_[input.key] = step ? corrector_.add_keyframe(placed.T_continuous_sensor, input.residual, step->information, step->T_previous_current)
+                                  : corrector_.add_keyframe(placed.T_continuous_sensor, input.residual);
   }
   return corrector_.corrected_poses().back();
 }
@@ -518,7 +536,7 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
                                           const std::function<void(const KeyframeRecord&, const Eigen::Isometry3d&)>& on_placed) {
   // Vlaminck 2019 Sec. 4: the keyframe enters the map where the corrected odometry puts it.
   if (features && !features->ok) features.reset();
-  const Eigen::Isometry3d T_map_query = enter_pose_sequence(input);
+  const Eigen::Isometry3d T_map_query = enter_pose_sequence(input, features.get());
   const KeyframeRecord& query = place_keyframe(input, std::move(features), T_map_query);
   if (on_placed) {
     KeyframeRecord placed = query;  // with its full features: what a store must keep even when memory keeps less

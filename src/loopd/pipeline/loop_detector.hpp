@@ -27,6 +27,7 @@
 #include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/pipeline/remote_keyframes.hpp"
 #include "loopd/pipeline/session_frames.hpp"
+#include "loopd/registration/keyframe_step.hpp"
 #include "loopd/retrieval/place_index.hpp"
 #include "loopd/verify/verify.hpp"
 
@@ -79,6 +80,8 @@ struct LoopDetectorConfig {
   /// Loops without a pose prior (across sessions, after odometry resets, beyond the gate); enabled = false keeps the
   /// paper's gate-only pipeline.
   GlobalRetrievalConfig retrieval;
+  /// The step between consecutive keyframes measured by their scans, in place of the odometry's in the corrections.
+  KeyframeStepConfig steps;
   std::optional<std::string> validate() const;
 };
 
@@ -190,6 +193,9 @@ class LoopDetector {
   std::size_t num_keyframes() const;
   std::int64_t loops_accepted() const { return loops_accepted_; }
   std::int64_t loops_rejected() const { return loops_rejected_; }
+  /// @brief Keyframe steps measured by the scans (config().steps), and those left to the odometry.
+  std::int64_t steps_measured() const { return corrector_.measured_steps(); }
+  std::int64_t steps_refused() const { return steps_refused_; }
   /// @brief Average bytes held per stored keyframe (descriptor + prepared scan + pose).
   std::size_t bytes_per_keyframe() const;
   std::string descriptor_device() const;
@@ -200,7 +206,10 @@ class LoopDetector {
   const KeyframeRecord& place_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
                                        const Eigen::Isometry3d& T_map_query);
   void add_ground_plane(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_query);
-  Eigen::Isometry3d enter_pose_sequence(const KeyframeInput& input);
+  Eigen::Isometry3d enter_pose_sequence(const KeyframeInput& input, const KeyframeFeatures* features);
+  /// The step from the newest keyframe (same segment) to this one measured by their scans (config_.steps); nullopt when
+  /// off, either has no prepared scan, or the registration is not believed.
+  std::optional<KeyframeStep> measure_step(const KeyframeFeatures* features, const Eigen::Isometry3d& T_continuous_sensor);
   LoopDecision make_decision(const KeyframeRecord& query, const RankedCandidate& candidate, double radius);
   struct GatedOutcome {
     std::vector<GateCandidate> gated;   ///< every keyframe the gate let through
@@ -261,6 +270,7 @@ class LoopDetector {
   bool correction_was_graph_ = false;          ///< the newest correction was a pose-graph solve
   std::int64_t loops_accepted_ = 0;
   std::int64_t loops_rejected_ = 0;
+  std::int64_t steps_refused_ = 0;
   std::optional<KeyframeKey> last_accepted_;  ///< query of the newest accepted loop
   std::vector<LoopConstraint> restored_loops_;
   SessionFrames sessions_;               ///< sessions in the corrector's one pose sequence, and which loops tied them
