@@ -45,6 +45,13 @@ inline MapKeyframe keyframe(SessionId s, std::int64_t i, std::shared_ptr<const K
   k.record.T_odom_sensor = pose(1.7 * static_cast<double>(i), 0.013 * static_cast<double>(i));
   k.record.residual = 0.031 * static_cast<double>(i + 1);
   k.record.travelled = 2.0 * static_cast<double>(i) + 0.5 * s;
+  if (i % 2 == 1) {  // every other keyframe's step measured by the scans
+    MeasuredStep step;
+    step.T_previous_this = pose(1.7, 0.013 + 0.001 * s);
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) step.information(r, c) = r == c ? 1e4 + i : 1.0 / (r + c + 2.0);
+    k.record.step = step;
+  }
   k.record.features = std::move(features);
   k.T_map_sensor = pose(1.7 * static_cast<double>(i) + 0.2, 0.013 * static_cast<double>(i) + 0.001);
   return k;

@@ -114,8 +114,8 @@ TEST_CASE("map clouds: drop_undecided removes the clouds of the keyframes it rem
 }
 
 TEST_CASE(
-    "map clouds: a schema 2 map gains the map_clouds table, scan fingerprints and published marks on a writable open, read-only it is refused with "
-    "the versions") {
+    "map clouds: a schema 2 map gains the map_clouds table, scan fingerprints, published marks and measured steps on a writable open, read-only "
+    "it is refused with the versions") {
   test::TempDir dir;
   const std::string path = dir.file("map.db");
   {
@@ -127,8 +127,8 @@ TEST_CASE(
   sqlite3* db = nullptr;
   REQUIRE(sqlite3_open(path.c_str(), &db) == SQLITE_OK);
   REQUIRE(sqlite3_exec(db,
-                       "DROP TABLE map_clouds; ALTER TABLE keyframes DROP COLUMN scan_fingerprint; ALTER TABLE loops DROP COLUMN published; PRAGMA "
-                       "user_version = 2;",
+                       "DROP TABLE map_clouds; ALTER TABLE keyframes DROP COLUMN scan_fingerprint; ALTER TABLE keyframes DROP COLUMN step; "
+                       "ALTER TABLE loops DROP COLUMN published; PRAGMA user_version = 2;",
                        nullptr, nullptr, nullptr) == SQLITE_OK);
   sqlite3_close(db);
   StoreStatus status;
@@ -140,11 +140,23 @@ TEST_CASE(
   CHECK(store->get_map_cloud({0, 0}).status.code == Code::kNotFound);  // stored before map clouds
   MapKeyframe fingerprinted = keyframe(1, 50);
   fingerprinted.record.scan_fingerprint = 0xfedcba9876543210ull;  // above INT64_MAX: stored as its two's complement
+  MeasuredStep step;
+  step.T_previous_this.translation() = Eigen::Vector3d(2.0, 0.1, -0.01);
+  step.T_previous_this.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.1, 0.2, 1.0).normalized()).toRotationMatrix();
+  for (int k = 0; k < 36; ++k) step.information(k % 6, k / 6) = 1.0 + k / 7.0;
+  fingerprinted.record.step = step;
   REQUIRE_OK(store->put_keyframe(fingerprinted));
   CHECK(store->get_map_cloud({0, 1}).value.size() == 50);
   std::vector<std::uint64_t> fingerprints;
   REQUIRE_OK(store->for_each_keyframe(0, KeyframeLoad::kPose, [&](MapKeyframe&& k) { fingerprints.push_back(k.record.scan_fingerprint); }));
   CHECK(fingerprints == std::vector<std::uint64_t>{0, 0xfedcba9876543210ull});  // 0: stored before fingerprints
+  std::vector<std::optional<MeasuredStep>> steps;
+  REQUIRE_OK(store->for_each_keyframe(0, KeyframeLoad::kFull, [&](MapKeyframe&& k) { steps.push_back(k.record.step); }));
+  REQUIRE(steps.size() == 2);
+  CHECK_FALSE(steps[0]);  // stored before measured steps: the odometry's step
+  REQUIRE(steps[1]);
+  CHECK(steps[1]->T_previous_this.matrix() == step.T_previous_this.matrix());  // bit for bit
+  CHECK(steps[1]->information == step.information);
   LoopRecord loop;
   loop.event_id = 3;
   loop.query = {0, 1};

@@ -104,6 +104,11 @@ TEST_CASE("map store: keyframes round-trip exactly at every load depth, per sess
       CHECK(same_pose(got.T_map_sensor, want.T_map_sensor));
       CHECK(same_bits(got.record.residual, want.record.residual));
       CHECK(same_bits(got.record.travelled, want.record.travelled));
+      REQUIRE(got.record.step.has_value() == want.record.step.has_value());
+      if (want.record.step) {
+        CHECK(same_pose(got.record.step->T_previous_this, want.record.step->T_previous_this));
+        CHECK(got.record.step->information == want.record.step->information);
+      }
       if (depth == KeyframeLoad::kPose || !want.record.features) {
         CHECK(got.record.features == nullptr);
         continue;

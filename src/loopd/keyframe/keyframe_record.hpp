@@ -5,9 +5,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "loopd/core/information.hpp"
 #include "loopd/descriptor/scan_context.hpp"
 #include "loopd/keyframe/keyframe_key.hpp"
 #include "loopd/keyframe/prepared_scan.hpp"
@@ -44,6 +46,13 @@ struct KeyframeFeatures {
   static std::size_t place_bytes(const PlaceDescriptor& p) { return p.bins.size() + (p.ring_key.size() + p.column_norms.size()) * sizeof(float); }
 };
 
+/// @brief The step from the previous keyframe of the pose sequence measured by their scans (correction.steps): the
+/// corrections use it in place of the odometry's step.
+struct MeasuredStep {
+  Eigen::Isometry3d T_previous_this = Eigen::Isometry3d::Identity();
+  Information6d information = Information6d::Zero();
+};
+
 /// @brief A keyframe: its name, its odometry pose and its features (null when it was shed under load: the pose still
 /// belongs to the trajectory but the keyframe is neither a query nor a candidate).
 struct KeyframeRecord {
@@ -55,6 +64,9 @@ struct KeyframeRecord {
   /// scan_fingerprint() of the keyframe's raw scan: with the time and the pose, how a replay resumed on its map knows
   /// the keyframes the map holds from those of another drive with the same times (0: not known, maps before it)
   std::uint64_t scan_fingerprint = 0;
+  /// Its step from the previous keyframe as the scans measured it; none where it was not measured (off, the first
+  /// keyframe of a session, a keyframe without features, a registration not believed, maps before it).
+  std::optional<MeasuredStep> step;
   std::shared_ptr<const KeyframeFeatures> features;
 };
 

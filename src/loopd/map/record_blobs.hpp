@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "loopd/keyframe/keyframe_key.hpp"
+#include "loopd/keyframe/keyframe_record.hpp"
 
 namespace loopd::blobs {
 
@@ -46,6 +47,21 @@ inline KeyframeKey read_key(const std::uint8_t* p) {
   std::memcpy(&key.session, p, 4);
   std::memcpy(&key.index, p + 4, 8);
   return key;
+}
+
+/// @brief A measured keyframe step: the pose (12 doubles) and its information (36 doubles, column-major).
+inline constexpr std::size_t kStepBytes = kPoseBytes + 36 * sizeof(double);
+inline std::vector<std::uint8_t> step_blob(const MeasuredStep& step) {
+  std::vector<std::uint8_t> out = pose_blob(step.T_previous_this);
+  append_doubles(out, step.information.data(), 36);
+  return out;
+}
+/// @brief The step of a blob of kStepBytes (the caller checks the size).
+inline MeasuredStep read_step(const std::uint8_t* p) {
+  MeasuredStep step;
+  step.T_previous_this = read_pose(p);
+  std::memcpy(step.information.data(), p + kPoseBytes, 36 * sizeof(double));
+  return step;
 }
 
 }  // namespace loopd::blobs

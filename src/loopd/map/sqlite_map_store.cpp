@@ -152,6 +152,7 @@ CREATE TABLE keyframes (
   features BLOB,
   place BLOB,
   scan_fingerprint INTEGER NOT NULL DEFAULT 0,
+  step BLOB,
   PRIMARY KEY (session, idx)
 );
 CREATE INDEX keyframes_undecided ON keyframes (session, idx) WHERE decided = 0;
@@ -200,7 +201,7 @@ CREATE TABLE correction (
 // the features blob's overflow pages).
 #define LOOPD_KEYFRAME_COLUMNS                                                                                                       \
   "session, idx, utime, T_odom_sensor, T_map_sensor, residual, travelled, has_features, features_ok, features_error, input_points, " \
-  "invalid_points, ms_descriptor, ms_prepare, descriptor, place, scan_fingerprint"
+  "invalid_points, ms_descriptor, ms_prepare, descriptor, place, scan_fingerprint, step"
 
 /// @brief The SQLite map: one connection, its cached statements, and the file name for messages.
 class SqliteMapStore final : public MapStore {
@@ -293,7 +294,7 @@ const char* sql_of(int s) {
        "ON CONFLICT (id) DO UPDATE SET first_utime = excluded.first_utime, sensor = excluded.sensor, source = excluded.source, "
        "T_map_session = excluded.T_map_session, anchored = excluded.anchored"),
       "SELECT id, first_utime, sensor, source, T_map_session, anchored FROM sessions ORDER BY id",
-      "INSERT INTO keyframes (" LOOPD_KEYFRAME_COLUMNS ", features) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+      "INSERT INTO keyframes (" LOOPD_KEYFRAME_COLUMNS ", features) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
       "SELECT " LOOPD_KEYFRAME_COLUMNS " FROM keyframes WHERE ?1 IS NULL OR session = ?1 ORDER BY session, idx",
       "SELECT " LOOPD_KEYFRAME_COLUMNS ", features FROM keyframes WHERE ?1 IS NULL OR session = ?1 ORDER BY session, idx",
       "SELECT has_features, features FROM keyframes WHERE session = ? AND idx = ?",
@@ -356,7 +357,8 @@ StoreStatus SqliteMapStore::upgrade_schema(std::int64_t from) {
   // 1 -> 2: the place descriptor (keyframes stored before it have none: not found by global retrieval) and how each
   // loop was found. 2 -> 3: the keyframes' map clouds (keyframes stored before have none: left out of the 3D map).
   // 3 -> 4: the keyframes' scan fingerprints (0 before: a replay resume matches those by time and pose alone) and
-  // whether each decision reached the bus (decisions stored before were).
+  // whether each decision reached the bus (decisions stored before were). 4 -> 5: the keyframes' steps measured by the
+  // scans (none before: the corrections use the odometry's steps there, as when they were made).
   const char* const steps[] = {
       "",
       ("ALTER TABLE keyframes ADD COLUMN place BLOB; ALTER TABLE loops ADD COLUMN retrieval TEXT NOT NULL DEFAULT 'gate'; "
@@ -365,6 +367,7 @@ StoreStatus SqliteMapStore::upgrade_schema(std::int64_t from) {
        "PRIMARY KEY (session, idx), FOREIGN KEY (session, idx) REFERENCES keyframes (session, idx) ON DELETE CASCADE);"),
       "ALTER TABLE keyframes ADD COLUMN scan_fingerprint INTEGER NOT NULL DEFAULT 0; ALTER TABLE loops ADD COLUMN published INTEGER NOT NULL DEFAULT "
       "1;",
+      "ALTER TABLE keyframes ADD COLUMN step BLOB;",
   };
   std::string sql = "BEGIN IMMEDIATE;";
   for (std::int64_t v = from; v < kSqliteMapSchemaVersion; ++v) sql += steps[v];
@@ -470,10 +473,18 @@ StoreStatus SqliteMapStore::insert_keyframe(const MapKeyframe& keyframe, bool* s
       use.blob(encode_place_descriptor(f->place));
     else
       use.null();
-    use.i64(static_cast<std::int64_t>(r.scan_fingerprint)).blob(encode_features(*f));
+    use.i64(static_cast<std::int64_t>(r.scan_fingerprint));
   } else {
-    use.i64(0).text("").i64(0).i64(0).f64(0.0).f64(0.0).null().null().i64(static_cast<std::int64_t>(r.scan_fingerprint)).null();
+    use.i64(0).text("").i64(0).i64(0).f64(0.0).f64(0.0).null().null().i64(static_cast<std::int64_t>(r.scan_fingerprint));
   }
+  if (r.step)
+    use.blob(blobs::step_blob(*r.step));
+  else
+    use.null();
+  if (f)
+    use.blob(encode_features(*f));
+  else
+    use.null();
   const int rc = use.step();
   if (rc == SQLITE_DONE) return {};
   const StoreStatus refused = fail(rc, "put keyframe " + to_string(r.key));
@@ -510,11 +521,16 @@ StoreStatus SqliteMapStore::read_keyframe(const Use& row, KeyframeLoad load, Map
   r.residual = row.f64_at(5);
   r.travelled = row.f64_at(6);
   r.scan_fingerprint = static_cast<std::uint64_t>(row.i64_at(16));
+  std::size_t step_bytes = 0;
+  const std::uint8_t* step = row.blob_at(17, step_bytes);
+  if (step && step_bytes != blobs::kStepBytes)
+    return corrupt("keyframe " + to_string(r.key) + ": its measured step is not " + std::to_string(blobs::kStepBytes) + " bytes");
+  if (step) r.step = blobs::read_step(step);
   if (load == KeyframeLoad::kPose || row.i64_at(7) == 0) return {};
   auto f = std::make_shared<KeyframeFeatures>();
   if (load == KeyframeLoad::kFull) {
     std::size_t n = 0;
-    const std::uint8_t* blob = row.blob_at(17, n);
+    const std::uint8_t* blob = row.blob_at(18, n);
     DecodedFeatures decoded = decode_features(blob, n);
     if (!decoded.ok) return corrupt("keyframe " + to_string(r.key) + ": " + decoded.error);
     *f = std::move(decoded.features);

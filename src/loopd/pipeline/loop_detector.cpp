@@ -169,13 +169,14 @@ void LoopDetector::keep_features_in_store(std::size_t cache_bytes, PreparedLoade
 std::size_t LoopDetector::cached_feature_bytes() const { return cache_ ? cache_->bytes() : 0; }
 
 const KeyframeRecord& LoopDetector::place_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
-                                                   const Eigen::Isometry3d& T_map_query) {
+                                                   const Eigen::Isometry3d& T_map_query, const std::optional<MeasuredStep>& step) {
   KeyframeRecord record;
   record.key = input.key;
   record.utime = input.utime;
   record.T_odom_sensor = input.T_odom_sensor;
   record.residual = input.residual;
   record.scan_fingerprint = input.scan_fingerprint;
+  record.step = step;
   record.travelled = travelled_;
   record.features = std::move(features);
   if (record.features && config_.correction.graph.use_plane_constraints) add_ground_plane(record, T_map_query);
@@ -317,7 +318,7 @@ std::optional<CorrectionOutput> LoopDetector::final_correction() {
   return c;
 }
 
-std::optional<KeyframeStep> LoopDetector::measure_step(const KeyframeFeatures* features, const Eigen::Isometry3d& T_continuous_sensor) {
+std::optional<MeasuredStep> LoopDetector::measure_step(const KeyframeFeatures* features, const Eigen::Isometry3d& T_continuous_sensor) {
   if (!config_.steps.enabled || !features || keyframes_.empty() || !keyframes_.newest().features) return std::nullopt;
   const std::shared_ptr<const KeyframeFeatures> previous = full_features(keyframes_.newest());
   if (!previous || previous->prepared.points.empty() || features->prepared.points.empty()) return std::nullopt;
@@ -329,10 +330,11 @@ std::optional<KeyframeStep> LoopDetector::measure_step(const KeyframeFeatures* f
     ++steps_refused_;
     return std::nullopt;
   }
-  return step;
+  return MeasuredStep{step.T_previous_current, step.information};
 }
 
-Eigen::Isometry3d LoopDetector::enter_pose_sequence(const KeyframeInput& input, const KeyframeFeatures* features) {
+Eigen::Isometry3d LoopDetector::enter_pose_sequence(const KeyframeInput& input, const KeyframeFeatures* features,
+                                                     const std::optional<MeasuredStep>* stored, std::optional<MeasuredStep>* step_used) {
   // One pose sequence for every session: a new session is stitched on where the last keyframe lay (SessionFrames) and
   // its join carries no odometry, so only loops place it.
   const bool first = corrector_.size() == 0;
@@ -343,9 +345,11 @@ Eigen::Isometry3d LoopDetector::enter_pose_sequence(const KeyframeInput& input, 
     pose_index_[input.key] = corrector_.add_segment_start(placed.T_continuous_sensor);
   } else {
     if (!first) travelled_ += (T_previous.inverse() * placed.T_continuous_sensor).translation().norm();
-    const std::optional<KeyframeStep> step = first ? std::nullopt : measure_step(features, placed.T_continuous_sensor);
-    pose_index_[input.key] = step ? corrector_.add_keyframe(placed.T_continuous_sensor, input.residual, step->information, step->T_previous_current)
+    std::optional<MeasuredStep> step;
+    if (!first) step = stored ? *stored : measure_step(features, placed.T_continuous_sensor);
+    pose_index_[input.key] = step ? corrector_.add_keyframe(placed.T_continuous_sensor, input.residual, step->information, step->T_previous_this)
                                   : corrector_.add_keyframe(placed.T_continuous_sensor, input.residual);
+    if (step_used) *step_used = step;
   }
   return corrector_.corrected_poses().back();
 }
@@ -536,8 +540,9 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
                                           const std::function<void(const KeyframeRecord&, const Eigen::Isometry3d&)>& on_placed) {
   // Vlaminck 2019 Sec. 4: the keyframe enters the map where the corrected odometry puts it.
   if (features && !features->ok) features.reset();
-  const Eigen::Isometry3d T_map_query = enter_pose_sequence(input, features.get());
-  const KeyframeRecord& query = place_keyframe(input, std::move(features), T_map_query);
+  std::optional<MeasuredStep> step;
+  const Eigen::Isometry3d T_map_query = enter_pose_sequence(input, features.get(), nullptr, &step);
+  const KeyframeRecord& query = place_keyframe(input, std::move(features), T_map_query, step);
   if (on_placed) {
     KeyframeRecord placed = query;  // with its full features: what a store must keep even when memory keeps less
     placed.features = full_features(query);

@@ -204,12 +204,16 @@ class LoopDetector {
  private:
   using DecisionCallback = std::function<void(const LoopDecision&)>;
   const KeyframeRecord& place_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
-                                       const Eigen::Isometry3d& T_map_query);
+                                       const Eigen::Isometry3d& T_map_query, const std::optional<MeasuredStep>& step);
   void add_ground_plane(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_query);
-  Eigen::Isometry3d enter_pose_sequence(const KeyframeInput& input, const KeyframeFeatures* features);
+  /// The keyframe joins the corrector's pose sequence with its step from the previous keyframe: `stored` (a restored
+  /// keyframe: what was measured when it was added, never measured again) or, when null, measured now from `features`;
+  /// the step used goes to `*step`. Returns its map pose.
+  Eigen::Isometry3d enter_pose_sequence(const KeyframeInput& input, const KeyframeFeatures* features, const std::optional<MeasuredStep>* stored,
+                                        std::optional<MeasuredStep>* step);
   /// The step from the newest keyframe (same segment) to this one measured by their scans (config_.steps); nullopt when
   /// off, either has no prepared scan, or the registration is not believed.
-  std::optional<KeyframeStep> measure_step(const KeyframeFeatures* features, const Eigen::Isometry3d& T_continuous_sensor);
+  std::optional<MeasuredStep> measure_step(const KeyframeFeatures* features, const Eigen::Isometry3d& T_continuous_sensor);
   LoopDecision make_decision(const KeyframeRecord& query, const RankedCandidate& candidate, double radius);
   struct GatedOutcome {
     std::vector<GateCandidate> gated;   ///< every keyframe the gate let through

@@ -12,8 +12,9 @@ void LoopDetector::restore_keyframe(const KeyframeRecord& record) {
   input.T_odom_sensor = record.T_odom_sensor;
   input.residual = record.residual;
   input.scan_fingerprint = record.scan_fingerprint;
-  const Eigen::Isometry3d T_map_query = enter_pose_sequence(input, features.get());
-  const KeyframeRecord& placed = place_keyframe(input, std::move(features), T_map_query);
+  std::optional<MeasuredStep> step;
+  const Eigen::Isometry3d T_map_query = enter_pose_sequence(input, features.get(), &record.step, &step);
+  const KeyframeRecord& placed = place_keyframe(input, std::move(features), T_map_query, step);
   gate_.add({placed.key, T_map_query.translation(), travelled_});
 }
 

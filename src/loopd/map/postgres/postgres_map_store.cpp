@@ -192,15 +192,17 @@ StoreStatus PostgresMapStore::put_keyframe(const MapKeyframe& keyframe) {
   const std::vector<std::uint8_t> descriptor = f ? encode_descriptor(f->descriptor) : std::vector<std::uint8_t>{};
   const std::vector<std::uint8_t> place = f && f->place.ok ? encode_place_descriptor(f->place) : std::vector<std::uint8_t>{};
   const std::vector<std::uint8_t> features = f ? encode_features(*f) : std::vector<std::uint8_t>{};
+  const std::vector<std::uint8_t> step_bytes = r.step ? blobs::step_blob(*r.step) : std::vector<std::uint8_t>{};  // empty: NULL
   return connection_.run("put keyframe " + to_string(r.key), [&](Tx& t) {
     const pqxx::result inserted = t.exec_params(
         "INSERT INTO keyframes (" + std::string(postgres::kKeyframeColumns) +
-            ", features) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18) ON CONFLICT DO NOTHING",
+            ", features) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, NULLIF($18, ''::bytea), $19) "
+            "ON CONFLICT DO NOTHING",
         r.key.session, r.key.index, r.utime, bin(blobs::pose_blob(r.T_odom_sensor)), bin(blobs::pose_blob(keyframe.T_map_sensor)),
         f64_text(r.residual), f64_text(r.travelled), f != nullptr, f && f->ok, f ? f->error : std::string(),
         static_cast<std::int64_t>(f ? f->input_points : 0), static_cast<std::int64_t>(f ? f->invalid_points : 0),
         f64_text(f ? f->ms_descriptor : 0.0), f64_text(f ? f->ms_prepare : 0.0), bin(descriptor), bin(place),
-        static_cast<std::int64_t>(r.scan_fingerprint), bin(features));
+        static_cast<std::int64_t>(r.scan_fingerprint), bin(step_bytes), bin(features));
     if (inserted.affected_rows() == 0) return same_keyframe_stored(t, r);  // with its map cloud: one transaction
     if (keyframe.map_cloud) {
       const std::vector<std::uint8_t>& blob = *keyframe.map_cloud;
@@ -222,10 +224,16 @@ StoreStatus PostgresMapStore::read_keyframe(const pqxx::row& row, KeyframeLoad l
   r.residual = f64(row[5]);
   r.travelled = f64(row[6]);
   r.scan_fingerprint = static_cast<std::uint64_t>(row[16].as<std::int64_t>());
+  if (!row[17].is_null()) {
+    const std::vector<std::uint8_t> step = bytes_of(row[17]);
+    if (step.size() != blobs::kStepBytes)
+      return corrupt("keyframe " + to_string(r.key) + ": its measured step is not " + std::to_string(blobs::kStepBytes) + " bytes");
+    r.step = blobs::read_step(step.data());
+  }
   if (load == KeyframeLoad::kPose || !row[7].as<bool>()) return {};
   auto f = std::make_shared<KeyframeFeatures>();
   if (load == KeyframeLoad::kFull) {
-    const std::vector<std::uint8_t> blob = bytes_of(row[17]);
+    const std::vector<std::uint8_t> blob = bytes_of(row[18]);
     DecodedFeatures decoded = decode_features(blob);
     if (!decoded.ok) return corrupt("keyframe " + to_string(r.key) + ": " + decoded.error);
     *f = std::move(decoded.features);

@@ -17,7 +17,7 @@ CREATE TABLE keyframes (
   features_error text NOT NULL, input_points bigint NOT NULL, invalid_points bigint NOT NULL,
   ms_descriptor float8 NOT NULL, ms_prepare float8 NOT NULL, descriptor bytea NOT NULL, place bytea NOT NULL,
   features bytea NOT NULL, stored_at timestamptz NOT NULL DEFAULT clock_timestamp(),
-  scan_fingerprint bigint NOT NULL DEFAULT 0,
+  scan_fingerprint bigint NOT NULL DEFAULT 0, step bytea,
   PRIMARY KEY (session, idx));
 CREATE TABLE map_clouds (
   session integer NOT NULL, idx bigint NOT NULL, points bigint NOT NULL, cloud bytea NOT NULL,
@@ -43,13 +43,15 @@ CREATE TABLE fleet_corrections (
 /// Keyframe columns of the bulk reads (features is read only at KeyframeLoad::kFull).
 inline constexpr const char* kKeyframeColumns =
     "session, idx, utime, T_odom_sensor, T_map_sensor, residual, travelled, has_features, features_ok, features_error, "
-    "input_points, invalid_points, ms_descriptor, ms_prepare, descriptor, place, scan_fingerprint";
+    "input_points, invalid_points, ms_descriptor, ms_prepare, descriptor, place, scan_fingerprint, step";
 
 /// Schema upgrades, from version i + 1 to i + 2 (run under the schema lock, with the version row updated).
 /// 1 -> 2: the keyframes' scan fingerprints (0 before: a replay resume matches those by time and pose alone).
+/// 2 -> 3: the keyframes' steps measured by the scans (none before: the odometry's steps are used there).
 inline constexpr const char* kSchemaUpgrades[] = {
     "ALTER TABLE keyframes ADD COLUMN scan_fingerprint bigint NOT NULL DEFAULT 0; "
     "ALTER TABLE loops ADD COLUMN published boolean NOT NULL DEFAULT true",
+    "ALTER TABLE keyframes ADD COLUMN step bytea",
 };
 
 inline constexpr const char* kLoopColumns =
