@@ -61,8 +61,8 @@ TEST_CASE("a keyframe step measured by the scans is the true step, with the regi
   REQUIRE(step.measured);
   const Eigen::Isometry3d error = k.T_previous_current.inverse() * step.T_previous_current;
   const Eigen::Isometry3d odometry_error = k.T_previous_current.inverse() * guess;
-  INFO("measured: " << error.translation().norm() << " m, " << rotation_angle(error) / kDeg << " deg; odometry: "
-                    << odometry_error.translation().norm() << " m, " << rotation_angle(odometry_error) / kDeg << " deg");
+  INFO("measured: " << error.translation().norm() << " m, " << rotation_angle(error) / kDeg
+                    << " deg; odometry: " << odometry_error.translation().norm() << " m, " << rotation_angle(odometry_error) / kDeg << " deg");
   CHECK(error.translation().norm() < 0.01);
   CHECK(rotation_angle(error) < 0.05 * kDeg);  // 0.026 measured, the odometry 0.5
   CHECK(step.fitness >= KeyframeStepConfig{}.min_fitness);
@@ -107,8 +107,8 @@ TEST_CASE("with tilt_from_odometry the step's roll and pitch are the odometry's,
   Eigen::Isometry3d guess = odometry_step(k.T_previous_current);
   guess.linear() = guess.linear() * Eigen::AngleAxisd(0.3 * kDeg, Eigen::Vector3d::UnitY()).toRotationMatrix();
   const Eigen::Matrix3d level = Eigen::Matrix3d::Identity();
-  const KeyframeStep step = measure_keyframe_step(k.previous.points, k.previous.unpacked_normals(), k.current.points,
-                                                  k.current.unpacked_normals(), guess, KeyframeStepConfig{}, &level);
+  const KeyframeStep step = measure_keyframe_step(k.previous.points, k.previous.unpacked_normals(), k.current.points, k.current.unpacked_normals(),
+                                                  guess, KeyframeStepConfig{}, &level);
   REQUIRE(step.measured);
   const Eigen::Vector3d ypr_truth = k.T_previous_current.linear().eulerAngles(2, 1, 0);
   const Eigen::Vector3d ypr_guess = guess.linear().eulerAngles(2, 1, 0);

@@ -334,7 +334,7 @@ std::optional<MeasuredStep> LoopDetector::measure_step(const KeyframeFeatures* f
 }
 
 Eigen::Isometry3d LoopDetector::enter_pose_sequence(const KeyframeInput& input, const KeyframeFeatures* features,
-                                                     const std::optional<MeasuredStep>* stored, std::optional<MeasuredStep>* step_used) {
+                                                    const std::optional<MeasuredStep>* stored, std::optional<MeasuredStep>* step_used) {
   // One pose sequence for every session: a new session is stitched on where the last keyframe lay (SessionFrames) and
   // its join carries no odometry, so only loops place it.
   const bool first = corrector_.size() == 0;

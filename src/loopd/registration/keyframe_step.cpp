@@ -48,7 +48,8 @@ Information6d step_information(const Eigen::Matrix<double, 6, 6>& H_rotation_fir
 
 /// The measured step with the odometry's tilt: the rotation between the two steps, in the odometry frame, keeps only
 /// its component about the frame's z (the heading the scans measured); its horizontal components are undone.
-Eigen::Isometry3d with_odometry_tilt(const Eigen::Isometry3d& T_measured, const Eigen::Isometry3d& T_odometry, const Eigen::Matrix3d& R_odom_previous) {
+Eigen::Isometry3d with_odometry_tilt(const Eigen::Isometry3d& T_measured, const Eigen::Isometry3d& T_odometry,
+                                     const Eigen::Matrix3d& R_odom_previous) {
   const Eigen::Matrix3d R_odom_current = R_odom_previous * T_measured.linear();
   const Eigen::AngleAxisd difference(T_measured.linear().transpose() * T_odometry.linear());  // in the current frame
   const Eigen::Vector3d tilt_odom = R_odom_current * (difference.angle() * difference.axis());
@@ -81,7 +82,8 @@ KeyframeStep measure_keyframe_step(const std::vector<Eigen::Vector3f>& previous,
   } else if (!(g.degeneracy >= 1.0 && g.degeneracy <= config.max_degeneracy)) {
     step.reason = "degenerate: translational condition " + std::to_string(g.degeneracy);
   } else if (step.translation_change > config.max_translation_change || step.rotation_change_deg > config.max_rotation_change_deg) {
-    step.reason = "disagrees with the odometry by " + std::to_string(step.translation_change) + " m / " + std::to_string(step.rotation_change_deg) + " deg";
+    step.reason =
+        "disagrees with the odometry by " + std::to_string(step.translation_change) + " m / " + std::to_string(step.rotation_change_deg) + " deg";
   } else {
     step.measured = true;
     step.T_previous_current = g.T_target_source;
