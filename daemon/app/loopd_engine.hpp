@@ -42,7 +42,7 @@ struct EngineConfig {
   LoopDetectorConfig detector;
   int num_threads = 0;                         ///< feature/verification workers; 0 = hardware threads
   int queue_capacity = 16;                     ///< keyframes waiting for a worker (see ready_capacity() for the sequential stage)
-  bool block_when_full = false;                ///< replay: wait for workers; live: shed (see README "Load shedding")
+  bool block_when_full = false;                ///< replay: wait for workers; live: shed (see docs/reliability.md)
   std::int64_t max_points_per_scan = 2000000;  ///< larger scans are rejected as invalid
   double clock_jump = 2.0;                     ///< [s] data clock vs arrival clock disagreement that is a clock jump (input.clock_jump)
   double max_odometry_speed = 60.0;            ///< [m/s] faster apparent odometry motion is an odometry reset (input.max_odometry_speed)

@@ -84,7 +84,7 @@ TEST_CASE("deskew.enabled switches motion compensation of a replayed drive, scan
   CHECK(compare(path("on.lcmlog"), path("off.lcmlog")) == 1);  // other scans, other decisions
   // Every deskewed loop agrees with ground truth, and the worst loop rotations shrink (they come from turns: scans of
   // one place skewed differently). The median can grow: same-direction revisits are skewed alike, and deskew adds
-  // each scan's own odometry-step noise (README "Deskew").
+  // each scan's own odometry-step noise (docs/accuracy.md).
   CHECK(on.eval["closure_precision"].get<double>() == 1.0);
   CHECK(on.eval["accepted"].get<int>() >= off.eval["accepted"].get<int>());
   CHECK(on.eval["loop_rotation_error_p95_deg"].get<double>() < off.eval["loop_rotation_error_p95_deg"].get<double>());
@@ -105,8 +105,8 @@ TEST_CASE("deskew.enabled switches motion compensation of a replayed drive, scan
   CHECK(on.eval["loop_translation_error_p95"].get<double>() < 0.8 * odometry.eval["loop_translation_error_p95"].get<double>());
   // The final trajectory (the run's last full solve) within a bound of ground truth: ATE 0.585 -> 0.077 m measured with
   // the keyframe steps measured by the scans (correction.steps, the default); with the odometry's steps 0.37 m, the
-  // first lap's own odometry wander (scale error, degraded stretches) that no loop sees (README "Where the loop error
-  // and the ATE come from").
+  // first lap's own odometry wander (scale error, degraded stretches) that no loop sees (docs/accuracy.md, "Where the
+  // loop error and the ATE come from").
   std::ofstream(path("no_steps.yaml")) << "correction:\n  steps:\n    enabled: false\n";
   const Replay no_steps = replay(path("skewed.lcmlog"), path("no_steps.yaml"), path("no_steps.lcmlog"));
   INFO("ATE after: measured steps " << on.eval["ate_after"] << ", odometry steps " << no_steps.eval["ate_after"]);

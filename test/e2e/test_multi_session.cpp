@@ -251,7 +251,7 @@ TEST_CASE("an odometry reset mid-drive opens a new session that loops re-anchor 
   CHECK(j["session_alignment_error_m"].get<double>() < 0.2);
   CHECK(j["session_alignment_error_deg"].get<double>() < 1.0);
   CHECK(j["session_alignment_distance_m"].get<double>() < 30.0);
-  // Against the same drive without the reset: the corrected trajectory is no worse than 1.2x (README "Sessions").
+  // Against the same drive without the reset: the corrected trajectory is no worse than 1.2x (docs/sessions.md).
   simulate(d / "n.lcmlog", 3, 1, 800);
   replay(d / "n.lcmlog", d / "on.lcmlog", d / "plain.db");
   const nlohmann::json plain = evaluate("--drive " + (d / "n.lcmlog").string() + " --results " + (d / "on.lcmlog").string());

@@ -1,4 +1,4 @@
-// loopd-bench: benchmark figures per stage (never asserted; see README "Benchmarks").
+// loopd-bench: benchmark figures per stage (never asserted; see docs/benchmarks.md).
 #include <cstring>
 #include <iostream>
 #include <string>
