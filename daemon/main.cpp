@@ -65,9 +65,11 @@ void print_summary(const loopd::RunSummary& s, bool replay) {
                  "odometry's (the scans disagreed or did not register)\n",
                  static_cast<long long>(e.sweeps_from_scans), static_cast<long long>(e.sweeps_velocity_changed),
                  static_cast<long long>(e.sweeps_from_odometry));
-  if (e.steps_measured + e.steps_refused > 0)
-    std::fprintf(stderr, "loopd: steps: %lld keyframe steps measured by the scans, %lld left to the odometry (the registration was not believed)\n",
-                 static_cast<long long>(e.steps_measured), static_cast<long long>(e.steps_refused));
+  if (e.steps_measured + e.steps_refused + e.steps_skewed > 0)
+    std::fprintf(stderr,
+                 "loopd: steps: %lld keyframe steps measured by the scans, %lld left to the odometry (the registration was not believed), %lld "
+                 "(scans that may be skewed: no per-point times, moving)\n",
+                 static_cast<long long>(e.steps_measured), static_cast<long long>(e.steps_refused), static_cast<long long>(e.steps_skewed));
   if (e.keyframes_submapped > 0)
     std::fprintf(stderr, "loopd: submaps: %lld keyframes of a narrow or sparse sensor built from %.1f scans each on average (submap.*)\n",
                  static_cast<long long>(e.keyframes_submapped), static_cast<double>(e.submap_scans) / static_cast<double>(e.keyframes_submapped));

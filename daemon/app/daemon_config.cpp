@@ -239,6 +239,8 @@ void bind_stage_configs(Binder& b, LoopDetectorConfig& d) {
   b.field("correction.steps.translation_sigma", d.steps.translation_sigma);
   b.field("correction.steps.rotation_sigma", d.steps.rotation_sigma);
   b.field("correction.steps.tilt_from_odometry", d.steps.tilt_from_odometry);
+  b.field("correction.steps.max_unskewed_motion", d.steps.max_unskewed_motion);
+  b.field("correction.steps.max_unskewed_rotation_deg", d.steps.max_unskewed_rotation_deg);
   b.field("correction.graph.use_plane_constraints", c.graph.use_plane_constraints);
   b.field("correction.graph.plane_cell_size", d.plane_cell_size);
 }
@@ -313,6 +315,7 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("association.max_poses", e.association.max_poses);
   b.field("deskew.enabled", e.deskew.enabled);
   b.field("deskew.from_scans", e.deskew_from_scans);
+  b.field("deskew.compensated_upstream", e.compensated_upstream);
   b.field("submap.enabled", e.submap.enabled);
   b.field("submap.max_coverage_deg", e.submap.max_coverage_deg);
   int submap_min_points = static_cast<int>(e.submap.min_points);

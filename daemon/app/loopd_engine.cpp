@@ -154,6 +154,14 @@ void LoopdEngine::tick(double wall_time_s) {
   sequence_ready(lock);
 }
 
+bool LoopdEngine::moved_little_since_last_scan(const Eigen::Isometry3d& T_odom_sensor) {
+  const Eigen::Isometry3d motion = last_scan_pose_ ? last_scan_pose_->inverse() * T_odom_sensor : Eigen::Isometry3d::Identity();
+  const bool little = last_scan_pose_ && motion.translation().norm() < config_.detector.steps.max_unskewed_motion &&
+                      rotation_angle(motion) * 180.0 / M_PI < config_.detector.steps.max_unskewed_rotation_deg;
+  last_scan_pose_ = T_odom_sensor;
+  return little;
+}
+
 void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -174,6 +182,7 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     // A sweep that began before the first pose (the drive's first scan) could only be deskewed by guessing the motion
     // before the odometry: the next scan, measured throughout, makes a better first keyframe.
     const bool before_odometry = config_.deskew.enabled && s.cloud.has_time() && sweep_begins_before_poses(s);
+    const bool slow_sweep = moved_little_since_last_scan(s.pose.T_world_sensor) || (config_.compensated_upstream && !s.cloud.has_time());
     if (before_odometry) timed = false;  // nor the sweep-motion reference of the next one: its motion is not known
     if (before_odometry || !selector_.accept(s.pose.T_world_sensor, s.utime, [&s] { return scene_scale(s.cloud); })) {
       if (narrow) {
@@ -217,6 +226,7 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     job.input.T_odom_sensor = assigned.T_odom_sensor;
     job.input.residual = residual_since_keyframe_;
     job.input.scan_fingerprint = fingerprint;
+    job.input.motion_compensated = slow_sweep;  // the worker sets it where it deskews the scan
     residual_since_keyframe_ = 0.0;
     job.T_odom_scan = s.pose.T_world_sensor;
     job.previous = std::move(previous);
@@ -412,6 +422,7 @@ void LoopdEngine::deskew_scan(Job& job) {
   job.previous.reset();
   const DeskewResult r = deskew(config_.deskew, job.sweep_poses, job.input.utime, &job.cloud);
   job.sweep_poses = {};
+  if (r.applied() || r.skipped == DeskewSkip::kNoSpan) job.input.motion_compensated = true;
   if (r.skipped == DeskewSkip::kNoSpan) return;  // an instantaneous scan: nothing to correct
   std::lock_guard<std::mutex> s(stats_mutex_);
   if (r.applied()) {
@@ -479,6 +490,7 @@ void LoopdEngine::run_sequential(ReadyKeyframe& item) {
   stats_.loops_rejected = detector_.loops_rejected();
   stats_.steps_measured = detector_.steps_measured();
   stats_.steps_refused = detector_.steps_refused();
+  stats_.steps_skewed = detector_.steps_skewed();
   stats_.bytes_per_keyframe = static_cast<std::int64_t>(detector_.bytes_per_keyframe());
   stats_.cached_feature_bytes = static_cast<std::int64_t>(detector_.cached_feature_bytes());
   T_map_odom_ = detector_.T_map_odom();

@@ -37,6 +37,9 @@ struct EngineConfig {
   /// where the odometry has no pose inside the sweep (10 Hz odometry: its increments' step noise would bend the scan);
   /// the odometry's motion where the scans disagree with it or do not register (deskew.from_scans).
   bool deskew_from_scans = true;
+  /// The scans arrive motion-compensated (deskewed by their driver or by the odometry, e.g. a LIO's undistorted cloud):
+  /// scans without per-point times count as free of skew, so their keyframe steps are measured (correction.steps).
+  bool compensated_upstream = false;
   SweepMotionConfig sweep_motion;
   KeyframeSubmapConfig submap;  ///< a narrow or sparse scan's keyframe cloud from the scans just before it
   LoopDetectorConfig detector;
@@ -106,6 +109,7 @@ struct EngineStats {
   std::int64_t loops_accepted = 0, loops_rejected = 0;
   std::int64_t steps_measured = 0;  ///< keyframe steps measured by the scans (correction.steps)
   std::int64_t steps_refused = 0;   ///< keyframe steps left to the odometry: the registration was not believed
+  std::int64_t steps_skewed = 0;    ///< ... and not measured: the scan may be skewed (no per-point times, moving)
   std::int64_t bytes_per_keyframe = 0;
   std::int64_t cached_feature_bytes = 0;     ///< with the map store keeping features: bytes in the LRU cache
   std::int64_t scans_lost_estimate = 0;      ///< scans that never arrived (ScanLossEstimator)
@@ -188,6 +192,9 @@ class LoopdEngine {
     std::int64_t sweep_begin = 0, sweep_end = 0;  ///< [us] the first and last point time (the scan's utime without times)
   };
   void handle_associated(std::vector<AssociatedScan> scans);
+  /// @brief Whether the odometry moved less than steps.max_unskewed_motion / _rotation_deg since the last scan (a
+  ///        scan without times is then free of skew enough to register); remembers the pose.
+  bool moved_little_since_last_scan(const Eigen::Isometry3d& T_odom_sensor);
   void update_input_health();
   void submit(Job job);
   /// Finished keyframes that may wait for the sequential stage: replay allows 16x queue_capacity (features only,
@@ -265,6 +272,7 @@ class LoopdEngine {
   std::atomic<std::int64_t> sequential_steps_{0};
 
   ScanWindow scan_window_;                           ///< (ingest thread) recent scans of a narrow or sparse sensor
+  std::optional<Eigen::Isometry3d> last_scan_pose_;  ///< (ingest thread) the last scan's odometry pose
   StampedPose pose_before_previous_;                 ///< (ingest thread) the odometry pose of the scan before previous_scan_; utime 0: none
   std::shared_ptr<const WindowScan> previous_scan_;  ///< (ingest thread) the last scan with per-point times (deskew_from_scans)
   mutable std::mutex stats_mutex_;

@@ -346,7 +346,12 @@ Eigen::Isometry3d LoopDetector::enter_pose_sequence(const KeyframeInput& input, 
   } else {
     if (!first) travelled_ += (T_previous.inverse() * placed.T_continuous_sensor).translation().norm();
     std::optional<MeasuredStep> step;
-    if (!first) step = stored ? *stored : measure_step(features, placed.T_continuous_sensor);
+    if (!first && stored) {
+      step = *stored;
+    } else if (!first && config_.steps.enabled) {
+      step = input.motion_compensated ? measure_step(features, placed.T_continuous_sensor) : std::nullopt;
+      if (!input.motion_compensated) ++steps_skewed_;
+    }
     pose_index_[input.key] = step ? corrector_.add_keyframe(placed.T_continuous_sensor, input.residual, step->information, step->T_previous_this)
                                   : corrector_.add_keyframe(placed.T_continuous_sensor, input.residual);
     if (step_used) *step_used = step;

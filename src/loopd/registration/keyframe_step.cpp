@@ -20,6 +20,7 @@ GicpConfig KeyframeStepConfig::default_gicp() {
 std::optional<std::string> KeyframeStepConfig::validate() const {
   if (!(max_translation_change > 0.0) || !(max_rotation_change_deg > 0.0)) return "max_translation_change and max_rotation_change_deg must be > 0";
   if (!(min_fitness >= 0.0 && min_fitness <= 1.0)) return "min_fitness must be in [0, 1]";
+  if (!(max_unskewed_motion >= 0.0) || !(max_unskewed_rotation_deg >= 0.0)) return "max_unskewed_motion and max_unskewed_rotation_deg must be >= 0";
   if (!(max_degeneracy >= 1.0)) return "max_degeneracy must be >= 1";
   if (!(translation_sigma > 0.0 && std::isfinite(translation_sigma)) || !(rotation_sigma > 0.0 && std::isfinite(rotation_sigma)))
     return "translation_sigma and rotation_sigma must be > 0";

@@ -34,6 +34,10 @@ struct KeyframeStepConfig {
   /// the few rings of a VLP-16 tilts each step the same way (the simulated mine: -0.04 deg of pitch a step, summing
   /// to degrees). Needs the odometry frame's z to be up (as REP-103 odometry frames are).
   bool tilt_from_odometry = true;
+  /// A scan without per-point times counts as free of skew (its step is measured) only where the odometry moved less
+  /// than this between it and the scan before (one sweep or more): a handheld sensor, a slow robot. [m] / [deg]
+  double max_unskewed_motion = 0.05;
+  double max_unskewed_rotation_deg = 0.5;
   GicpConfig gicp = default_gicp();
 
   /// @brief GICP for two clouds already within centimetres of each other: 1.0 / 0.5 m correspondence stages, one thread.
