@@ -414,7 +414,12 @@ std::vector<StampedPose> LoopdEngine::sweep_poses_from_scans(const Job& job) {
 }
 
 void LoopdEngine::deskew_scan(Job& job) {
-  if (!config_.deskew.enabled || !job.cloud.has_time()) return;  // scans without times stay as they came, bit for bit
+  if (!job.cloud.has_time()) return;  // scans without times stay as they came, bit for bit
+  if (!config_.deskew.enabled) {
+    const auto [first, last] = time_span(job.cloud);
+    if (first == 0.0 && last == 0.0) job.input.motion_compensated = true;  // an instantaneous scan: free of skew anyway
+    return;
+  }
   if (config_.deskew_from_scans) {
     std::vector<StampedPose> measured = sweep_poses_from_scans(job);
     if (!measured.empty()) job.sweep_poses = std::move(measured);
