@@ -316,6 +316,10 @@ void bind(Binder& b, DaemonConfig& c) {
   b.field("deskew.enabled", e.deskew.enabled);
   b.field("deskew.from_scans", e.deskew_from_scans);
   b.field("deskew.compensated_upstream", e.compensated_upstream);
+  b.field("deskew.sweep_motion.voxel_size", e.sweep_motion.voxel_size);
+  b.field("deskew.sweep_motion.max_input_points", e.sweep_motion.max_input_points);
+  b.field("deskew.sweep_motion.rounds", e.sweep_motion.rounds);
+  b.field("deskew.sweep_motion.max_source_points", e.sweep_motion.gicp.max_source_points);
   b.field("submap.enabled", e.submap.enabled);
   b.field("submap.max_coverage_deg", e.submap.max_coverage_deg);
   int submap_min_points = static_cast<int>(e.submap.min_points);
