@@ -100,7 +100,11 @@ int main(int argc, char** argv) {
                  "candidates, one joint correction (overrides fleet.vehicle)");
   app.add_flag("--print-config", print_config, "print the effective configuration as YAML and exit");
   app.add_flag("--quiet", quiet, "no log line per accepted loop");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // the exit status table (docs/tools.md): 2 = bad input or usage
+  }
 
   loopd::DaemonConfig config;
   std::string error;

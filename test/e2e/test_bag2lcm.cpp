@@ -146,7 +146,7 @@ void write_without_residuals(const std::string& in, const std::string& out) {
   writer.close();
 }
 
-/// Runs a tool with --json; its exit status must be `expected_rc` (-1: 0 or 1).
+/// Runs a tool with --json; its exit status must be `expected_rc` (-1: 0 or 1, as loopd-compare's identical or not).
 nlohmann::json run_json(const std::string& command, int expected_rc) {
   int rc = 0;
   const std::string log = test::run_command(command, &rc);
@@ -280,12 +280,13 @@ TEST_CASE("bag2lcm refuses damaged bags with an error that names the problem, an
     std::ofstream(tmp / name, std::ios::binary) << content;
     return tmp / name;
   };
-  // Runs bag2lcm on `file`: exit status 1, no output file, and the error (last stderr line, and the JSON) says `what`.
+  // Runs bag2lcm on `file`: exit status 2 (bad input), no output file, and the error (last stderr line, and the JSON)
+  // says `what`.
   auto refuses = [&](const std::string& file, const std::string& args, const std::string& what) {
     const std::string command = kBag2lcm + " " + file + " --out " + out + " --quiet --json " + args;
     const std::string text = test::run_command(command, &rc);
     INFO(command << "\n" << text);
-    CHECK(rc == 1);  // not a signal (-1) and not a bad-argument code
+    CHECK(rc == 2);  // bad input, not a signal (-1)
     CHECK_FALSE(fs::exists(out));
     const nlohmann::json j = nlohmann::json::parse(test::last_line(text));
     CHECK(j.at("ok") == false);

@@ -163,6 +163,6 @@ TEST_CASE("loopd-eval --movers: points inside the boxes counted in the map and t
   int rc = 0;
   const std::string bad = test::run_command(
       kBin + "/tools/loopd-eval/loopd-eval --drive " + r.drive_log + " --results " + r.out_log + " --quiet --map-cloud " + movers, &rc);
-  CHECK(rc == 1);
+  CHECK(rc == 2);  // bad input (tools/common/exit_codes.hpp)
   CHECK(bad.find("unknown point cloud format") != std::string::npos);
 }

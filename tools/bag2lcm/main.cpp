@@ -14,6 +14,7 @@
 #include "converter.hpp"
 #include "report.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd::bag2lcm;
 
@@ -23,7 +24,7 @@ int finish(const Report& r, bool json) {
   if (r.converted) std::cout << report_table(r);
   if (!r.ok) std::cerr << "bag2lcm: " << r.error << " (nothing written to " << r.out << ")\n";
   if (json) loopd::tools::print_json_line(report_json(r));
-  return r.ok ? 0 : 1;
+  return r.ok ? loopd::tools::kExitOk : loopd::tools::kExitUsage;  // a bag it cannot convert is bad input (exit_codes.hpp)
 }
 
 /// rosbag_storage trusts the lengths inside a bag (a damaged record header can make it read outside its buffers), so
@@ -90,7 +91,7 @@ int main(int argc, char** argv) {
       "per-point time, t, timestamp or offset_time; NaN points dropped. Poses: T_world_sensor = T_world_base * T_base_sensor (T_base_sensor from "
       "--tf-static-topic). "
       "Exit status 0: converted; 1: the bag cannot be converted (the error names the topic and message); 2 or above 100: bad arguments.");
-  CLI11_PARSE(app, argc, argv);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   if (tf.size() == 2) {
     o.tf_parent = tf[0];
     o.tf_child = tf[1];

@@ -14,6 +14,7 @@
 #include "loopd/io/kitti_files.hpp"
 #include "message_convert.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 using namespace loopd::tools;
@@ -56,9 +57,10 @@ void assign_rings(const LidarModel& model, PointCloud* cloud) {
   }
 }
 
-int fail(const std::string& msg) {
+/// Prints the reason; returns kExitUsage (bad input) unless told otherwise (a write that failed on the way).
+int fail(const std::string& msg, int status = loopd::tools::kExitUsage) {
   std::cerr << "kitti2lcm: " << msg << "\n";
-  return 1;
+  return status;
 }
 
 }  // namespace
@@ -94,7 +96,7 @@ int main(int argc, char** argv) {
   app.add_option("--odometry-channel", odom_channel)->capture_default_str();
   app.add_flag("--json", json, "print one JSON object as the last stdout line");
   app.add_flag("--quiet", quiet, "no progress bar");
-  CLI11_PARSE(app, argc, argv);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   if (auto e = drift.validate()) return fail(*e);
   std::optional<LidarModel> model;
   if (!sensor.empty()) {
@@ -159,7 +161,7 @@ int main(int argc, char** argv) {
     const auto seq = static_cast<std::int64_t>(i);
     if (!writer.write_message(gt_channel, utime, pose_message(utime, seq, gt[i], 0.0)) ||
         !writer.write_message(odom_channel, utime, pose_message(utime, seq, odom[i], residuals[i])))
-      return fail("cannot write to " + out);
+      return fail("cannot write to " + out, loopd::tools::kExitProblem);
     const std::string scan = scan_path(velodyne_dir, i);
     if (scan.empty()) {
       if (!skip_missing) {
@@ -175,7 +177,8 @@ int main(int argc, char** argv) {
       cloud = std::move(read.cloud);
       if (model) assign_rings(*model, &cloud);
       cloud.time.clear();  // KITTI scans have no per-point times: point_cloud_t.num_point_times = 0 (unknown)
-      if (!writer.write_message(scan_channel, utime, to_message(cloud, utime, seq, frame))) return fail("cannot write to " + out);
+      if (!writer.write_message(scan_channel, utime, to_message(cloud, utime, seq, frame)))
+        return fail("cannot write to " + out, loopd::tools::kExitProblem);
       ++scans;
       points += static_cast<std::int64_t>(cloud.size());
     }

@@ -10,6 +10,7 @@
 #include "loopd/correction/pose_graph.hpp"
 #include "loopd/correction/trajectory_tools.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 using loopd::tools::fmt;
@@ -26,11 +27,7 @@ int run_bench_correct(int argc, char** argv) {
   app.add_option("--seed", seed, "drift seed")->capture_default_str();
   app.add_flag("--full", full, "also time the full (unreduced) pose graph, one node per keyframe (slow)");
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   if (poses < 200 || num_loops < 1 || repeats < 1 || graph_repeats < 1) {
     std::cerr << "loopd-bench correct: need --poses >= 200, --loops >= 1, --repeats >= 1\n";
     return 1;

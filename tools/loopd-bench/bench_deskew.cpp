@@ -9,6 +9,7 @@
 #include "loopd/core/stopwatch.hpp"
 #include "loopd/sim/drive.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 using loopd::tools::fmt;
@@ -63,11 +64,7 @@ int run_bench_deskew(int argc, char** argv) {
   app.add_option("--seed", cfg.seed, "town seed")->capture_default_str();
   app.add_option("--repeats", repeats, "timed runs per variant")->capture_default_str();
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   const Drive drive = make_drive(cfg);
   if (!drive.error.empty() || cfg.num_scans < 2 || repeats < 1) {
     std::cerr << "loopd-bench deskew: " << (drive.error.empty() ? "need --scans >= 2 and --repeats >= 1" : drive.error) << "\n";

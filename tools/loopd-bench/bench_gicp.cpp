@@ -24,6 +24,7 @@
 #include "loopd/pipeline/prepare_scan.hpp"
 #include "pcl_peers_gicp.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 
@@ -68,7 +69,7 @@ int run_bench_gicp(int argc, char** argv) {
   app.add_option("--kitti", kitti_dir, "KITTI folder (poses/, calib/, seq00/); skipped when absent")->capture_default_str();
   app.add_flag("--no-pcl", no_pcl, "skip the PCL peer");
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  CLI11_PARSE(app, argc, argv);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   gicp.num_threads = threads;
   prep.num_threads = threads;
   prep.normal_k_neighbors = gicp.k_neighbors;

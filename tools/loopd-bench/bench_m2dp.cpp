@@ -10,6 +10,7 @@
 #include "loopd/descriptor/m2dp.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 
@@ -56,11 +57,7 @@ int run_bench_m2dp(int argc, char** argv) {
   app.add_option("--device", device, "OpenCL device index (-1: first GPU, else first device)");
   app.add_option("--store", store_size, "also time DescriptorStore::knn (k=10) among this many random descriptors");
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   M2dpConfig config;
   config.backend = *backend_from_string(backend_name);
   config.frame = *frame_from_string(frame_name);

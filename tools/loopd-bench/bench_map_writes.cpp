@@ -13,6 +13,7 @@
 #include "loopd/map/map_cloud_codec.hpp"
 #include "loopd/map/map_store.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 
@@ -156,11 +157,7 @@ int run_bench_map_writes(int argc, char** argv) {
   app.add_option("--keyframes", keyframes, "keyframes per writer")->check(CLI::PositiveNumber);
   app.add_option("--synchronous", config.synchronous, "SQLite synchronous: normal (no fsync per commit) or full (PostgreSQL's default durability)");
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   config.uri = uri;
   const bool postgres = uri.rfind("postgresql://", 0) == 0 || uri.rfind("postgres://", 0) == 0;
   if (!postgres && writers > 1) {

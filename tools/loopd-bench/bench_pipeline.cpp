@@ -15,6 +15,7 @@
 #include "loopd_engine.hpp"
 #include "message_convert.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 using loopd::tools::fmt;
@@ -130,11 +131,7 @@ int run_bench_pipeline(int argc, char** argv) {
   app.add_option("--paced-speed", paced_speed, "speed of the paced (live-policy) run; 1 = real time")->capture_default_str();
   app.add_flag("--no-paced", skip_paced, "only the replay run");
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
 
   LogReader reader;
   std::string error;

@@ -31,6 +31,7 @@
 #include "loopd/sim/town.hpp"
 #include "pcl_peers_registration.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 
@@ -134,7 +135,7 @@ int run_bench_register(int argc, char** argv) {
   app.add_flag("--no-pcl", no_pcl, "skip the PCL peers");
   app.add_flag("--no-kitti", no_kitti, "skip the real KITTI pairs");
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  CLI11_PARSE(app, argc, argv);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   const char* data_env = std::getenv("LOOPD_DATA_DIR");
   const std::string data_dir = data_env != nullptr ? data_env : "../shared/data";
 

@@ -10,6 +10,7 @@
 #include "loopd/retrieval/place_index.hpp"
 #include "loopd/sim/drive.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 
@@ -97,11 +98,7 @@ int run_bench_retrieval(int argc, char** argv) {
   app.add_option("--k", config.k, "RetrievalConfig::k");
   app.add_option("--ring-candidates", config.ring_candidates, "RetrievalConfig::ring_candidates");
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   if (const auto err = config.validate()) {
     std::cerr << "loopd-bench retrieval: " << *err << "\n";
     return 2;

@@ -39,6 +39,7 @@
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 using loopd::tools::fmt;
@@ -577,11 +578,7 @@ int run_bench_soak(int argc, char** argv) {
   app.add_option("--warmup-min", warmup_min, "minutes left out of the RSS fit (start-up allocations)")->capture_default_str();
   app.add_option("--out", out_dir, "folder for the generated drive, loopd.log, soak.dat and soak_rss.png")->capture_default_str();
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   const std::string group = "239.255.76.67";
   const std::string url = "udpm://" + group + ":" + std::to_string(port) + "?ttl=0&recv_buf_size=8388608";
   std::string route;

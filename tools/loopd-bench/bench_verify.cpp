@@ -13,6 +13,7 @@
 #include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/verify/verify.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 
@@ -44,7 +45,7 @@ int run_bench_verify(int argc, char** argv) {
   app.add_option("--threads", threads, "threads (normals, GICP, 4PCS scoring)")->capture_default_str();
   app.add_option("--voxel", prep.voxel_size, "voxel size [m]")->capture_default_str();
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  CLI11_PARSE(app, argc, argv);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   prep.num_threads = threads;
   cfg.gicp.num_threads = threads;
   cfg.four_pcs.num_threads = threads;

@@ -3,6 +3,8 @@
 #include <iostream>
 #include <string>
 
+#include "exit_codes.hpp"
+
 int run_bench_m2dp(int argc, char** argv);
 int run_bench_register(int argc, char** argv);
 int run_bench_gicp(int argc, char** argv);
@@ -42,11 +44,11 @@ void usage() {
 int main(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
     usage();
-    return argc < 2 ? 1 : 0;
+    return argc < 2 ? loopd::tools::kExitUsage : loopd::tools::kExitOk;
   }
   for (const auto& s : kSubcommands)
     if (s.name == std::string(argv[1])) return s.run(argc - 1, argv + 1);
   std::cerr << "loopd-bench: unknown subcommand '" << argv[1] << "'\n";
   usage();
-  return 1;
+  return loopd::tools::kExitUsage;
 }

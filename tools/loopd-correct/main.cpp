@@ -10,14 +10,15 @@
 #include "loopd/correction/loop_file.hpp"
 #include "loopd/correction/trajectory_tools.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 using loopd::tools::fmt;
 
 namespace {
-int fail(const std::string& message) {
+int fail(const std::string& message) {  // bad input: the exit status table (exit_codes.hpp)
   std::cerr << "loopd-correct: " << message << "\n";
-  return 1;
+  return tools::kExitUsage;
 }
 }  // namespace
 
@@ -35,7 +36,7 @@ int main(int argc, char** argv) {
   app.add_option("--ground-truth", ground_truth_path, "optional ground truth (same format) to print the pose error before/after");
   app.add_option("--loss-scale", config.graph.loop_loss_scale, "robust kernel scale on loop edges [sigmas]")->capture_default_str();
   app.add_flag("--json", json, "print one JSON object as the last stdout line");
-  CLI11_PARSE(app, argc, argv);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
 
   const auto method = correction_method_from_string(method_name);
   if (!method) return fail("unknown --method '" + method_name + "' (heuristic, graph, heuristic+graph)");

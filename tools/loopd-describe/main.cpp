@@ -7,6 +7,7 @@
 #include "loopd/descriptor/m2dp.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 
@@ -20,12 +21,12 @@ int main(int argc, char** argv) {
   app.add_option("--frame", frame_name, "pca (paper) | gravity (z up)")->check(CLI::IsMember({"pca", "gravity"}));
   app.add_option("--max-points", max_points, "stride-subsample to at most this many points (0 = all)");
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  CLI11_PARSE(app, argc, argv);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
 
   const CloudFile read = read_cloud_file(file);
   if (!read.ok) {
     std::cerr << "loopd-describe: " << read.error << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   std::size_t removed = 0;
   const PointCloud cloud = remove_non_finite(read.cloud, &removed);
@@ -39,7 +40,7 @@ int main(int argc, char** argv) {
   const double ms = sw.ms();
   if (!r.ok) {
     std::cerr << "loopd-describe: " << r.error << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   if (json) {
     std::vector<float> d(r.descriptor.data(), r.descriptor.data() + r.descriptor.size());

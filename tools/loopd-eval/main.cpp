@@ -12,6 +12,7 @@
 #include "loopd/core/trajectory_io.hpp"
 #include "plots.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 using namespace loopd::tools;
@@ -281,7 +282,7 @@ int main(int argc, char** argv) {
   app.add_option("--trajectory-channel", ch.trajectory)->capture_default_str();
   app.add_flag("--quiet", quiet, "no progress bar");
   add_map_options(app, &map_options);
-  CLI11_PARSE(app, argc, argv);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   if (auto e = config.validate(); e || (e = map_options.validate())) {
     std::cerr << "loopd-eval: " << *e << "\n";
     return 2;
@@ -290,17 +291,17 @@ int main(int argc, char** argv) {
   EvalInput input;
   LogReadStats drive_stats, result_stats;
   std::vector<DriveSpan> spans;
-  if (!read_logs(drives, results, ch, quiet, &input, &spans, &drive_stats, &result_stats)) return 1;
+  if (!read_logs(drives, results, ch, quiet, &input, &spans, &drive_stats, &result_stats)) return tools::kExitUsage;
   const EvalReport rep = evaluate(input, config);
-  if (!rep.ok) {
+  if (!rep.ok) {  // the logs hold nothing to evaluate (no ground truth, no keyframes): bad input
     std::cerr << "loopd-eval: " << rep.error << "\n";
-    return 1;
+    return tools::kExitUsage;
   }
   MapEvalReport map_report;
   std::string map_error;
   if (!run_map_eval(map_options, drives, ch, input, quiet, &map_report, &map_error)) {
     std::cerr << "loopd-eval: " << map_error << "\n";
-    return 1;
+    return tools::kExitUsage;
   }
   std::vector<std::string> warnings = rep.warnings;
   warnings.insert(warnings.end(), map_report.warnings.begin(), map_report.warnings.end());

@@ -10,6 +10,7 @@
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/pipeline/register_scans.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 
@@ -28,14 +29,14 @@ int main(int argc, char** argv) {
   app.add_option("--max-bases", config.four_pcs.max_bases, "coplanar bases tried")->capture_default_str();
   app.add_option("--threads", config.four_pcs.num_threads, "threads scoring congruent sets")->capture_default_str();
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  CLI11_PARSE(app, argc, argv);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
 
   DaemonConfig daemon_config;
   std::string error;
   if (!config_path.empty()) {
     if (!load_config(config_path, &daemon_config, &error)) {
       std::cerr << "loopd-register: --config " << config_path << ": " << error << "\n";
-      return 1;
+      return loopd::tools::kExitUsage;
     }
     const ScanRegistrationConfig cli = config;
     config.prepare = daemon_config.engine.detector.prepare;
@@ -47,22 +48,22 @@ int main(int argc, char** argv) {
   }
   if (!sensor.empty() && !apply_sensor_preset(sensor, &daemon_config, &error)) {
     std::cerr << "loopd-register: --sensor: " << error << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   const LoopDetectorConfig& detector = daemon_config.engine.detector;
   if (auto e = validate_sensor_choice(detector.sensor, detector.sensor_elevations_deg, detector.sensor_columns)) {
     std::cerr << "loopd-register: " << *e << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   const std::optional<LidarModel> model = sensor_model_from_choice(detector.sensor, detector.sensor_elevations_deg, detector.sensor_columns);
   if (auto e = config.validate()) {
     std::cerr << "loopd-register: " << *e << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   const CloudFile query_read = read_cloud_file(query_file), match_read = query_read.ok ? read_cloud_file(match_file) : CloudFile{};
   if (!query_read.ok || !match_read.ok) {
     std::cerr << "loopd-register: " << (query_read.ok ? match_read.error : query_read.error) << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   const PointCloud& query = query_read.cloud;
   const PointCloud& match = match_read.cloud;
@@ -85,7 +86,7 @@ int main(int argc, char** argv) {
                             {"reason", r.reason},
                             {"bases", r.bases_tried},
                             {"congruent_sets", r.congruent_sets}});
-    return r.success ? 0 : 2;
+    return r.success ? loopd::tools::kExitOk : loopd::tools::kExitProblem;  // no alignment found: it ran, the scans did not register
   }
   tools::Table t({"query", "match", "success", "lcp", "bases", "congruent sets", "4pcs ms", "prepare ms"});
   t.add({query_file, match_file, r.success ? "yes" : "no: " + r.reason, tools::fmt(r.lcp_fraction), std::to_string(r.bases_tried),

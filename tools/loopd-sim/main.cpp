@@ -16,6 +16,7 @@
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 namespace {
 
@@ -258,7 +259,7 @@ int main(int argc, char** argv) {
   app.add_flag("--list-sensors", list, "list the lidar models and exit");
   app.add_flag("--json", json, "print one JSON object as the last line");
   app.add_flag("--quiet", quiet, "no progress bar");
-  CLI11_PARSE(app, argc, argv);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
 
   if (list) return list_sensors(json);
   if (out.empty()) {
@@ -281,7 +282,7 @@ int main(int argc, char** argv) {
   std::string error;
   if (!writer.open(out, &error)) {
     std::cerr << "loopd-sim: cannot open " << out << ": " << error << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   RunFigures run;
   run.threads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

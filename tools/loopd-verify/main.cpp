@@ -13,6 +13,7 @@
 #include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/verify/verify.hpp"
 #include "tool_output.hpp"
+#include "exit_codes.hpp"
 
 using namespace loopd;
 
@@ -50,27 +51,27 @@ int main(int argc, char** argv) {
   app.add_option("--max-degeneracy", cfg_cli.max_degeneracy_ratio, "translational condition number allowed")->capture_default_str();
   app.add_option("--min-consistency", cfg_cli.min_hungarian_consistency, "cluster centroid share needed")->capture_default_str();
   app.add_flag("--json", json, "one JSON object as the last stdout line");
-  CLI11_PARSE(app, argc, argv);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
 
   std::string error;
   if (!config_path.empty() && !load_config(config_path, &daemon_config, &error)) {
     std::cerr << "loopd-verify: --config " << config_path << ": " << error << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   LoopDetectorConfig& detector = daemon_config.engine.detector;
   if (sensor == "none") sensor = "auto";
   if (!sensor.empty() && !apply_sensor_preset(sensor, &daemon_config, &error)) {
     std::cerr << "loopd-verify: --sensor: " << error << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   if (auto err = detector.validate()) {
     std::cerr << "loopd-verify: " << *err << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   const CloudFile query_read = read_cloud_file(query_file), match_read = query_read.ok ? read_cloud_file(match_file) : CloudFile{};
   if (!query_read.ok || !match_read.ok) {
     std::cerr << "loopd-verify: " << (query_read.ok ? match_read.error : query_read.error) << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   const PointCloud& query_cloud = query_read.cloud;
   const PointCloud& match_cloud = match_read.cloud;
@@ -93,11 +94,11 @@ int main(int argc, char** argv) {
   cfg.four_pcs.num_threads = threads;
   if (auto err = prep.validate()) {
     std::cerr << "loopd-verify: " << *err << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   if (auto err = cfg.validate()) {
     std::cerr << "loopd-verify: " << *err << "\n";
-    return 1;
+    return loopd::tools::kExitUsage;
   }
   SensorEstimate query_seen, match_seen;
   const PreparedScan query = prepare_scan(query_cloud, model_for_scan(model, query_cloud, &query_seen), prep);
