@@ -294,6 +294,15 @@ std::string failure_reason(const ScheduleOutcome& schedule, double fitness, cons
 
 }  // namespace
 
+GicpConfig near_clouds_gicp(int max_source_points) {
+  GicpConfig g;
+  g.max_correspondence_distances = {1.0, 0.5};
+  g.max_source_points = max_source_points;
+  g.num_threads = 1;
+  g.min_fitness = 0.3;
+  return g;
+}
+
 std::optional<std::string> GicpConfig::validate() const {
   if (k_neighbors < kMinCovarianceNeighbors || k_neighbors > kMaxNeighbors)
     return "GicpConfig.k_neighbors must be in [" + std::to_string(kMinCovarianceNeighbors) + ", " + std::to_string(kMaxNeighbors) + "]";

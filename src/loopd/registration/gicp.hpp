@@ -35,6 +35,11 @@ struct GicpConfig {
   std::optional<std::string> validate() const;
 };
 
+/// @brief GICP for two clouds already within decimetres of each other (consecutive sweeps, consecutive keyframes):
+///        1.0 / 0.5 m correspondence stages, at most max_source_points source points, one thread (the callers already
+///        run in parallel), fitness 0.3.
+GicpConfig near_clouds_gicp(int max_source_points);
+
 /// @brief Outcome of align_gicp.
 struct GicpResult {
   bool converged = false;  ///< final stage met the step criterion within max_iterations and fitness >= min_fitness

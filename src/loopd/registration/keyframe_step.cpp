@@ -8,14 +8,7 @@
 
 namespace loopd {
 
-GicpConfig KeyframeStepConfig::default_gicp() {
-  GicpConfig g;
-  g.max_correspondence_distances = {1.0, 0.5};
-  g.max_source_points = 2000;
-  g.num_threads = 1;
-  g.min_fitness = 0.3;
-  return g;
-}
+GicpConfig KeyframeStepConfig::default_gicp() { return near_clouds_gicp(2000); }
 
 std::optional<std::string> KeyframeStepConfig::validate() const {
   if (!(max_translation_change > 0.0) || !(max_rotation_change_deg > 0.0)) return "max_translation_change and max_rotation_change_deg must be > 0";

@@ -110,14 +110,7 @@ PointCloud sweep_motion_input(const PointCloud& cloud, const SweepMotionConfig& 
   return out;
 }
 
-GicpConfig SweepMotionConfig::default_gicp() {
-  GicpConfig g;
-  g.max_correspondence_distances = {1.0, 0.5};
-  g.max_source_points = 1500;
-  g.num_threads = 1;
-  g.min_fitness = 0.3;
-  return g;
-}
+GicpConfig SweepMotionConfig::default_gicp() { return near_clouds_gicp(1500); }
 
 std::optional<std::string> SweepMotionConfig::validate() const {
   if (!(voxel_size > 0.0)) return "voxel_size must be > 0";
