@@ -14,7 +14,7 @@ const std::string kBin = LOOPD_BINARY_DIR;
 const std::string kMissing = "/nonexistent/loopd-exit-codes/none";
 
 struct Program {
-  std::string path;     ///< relative to the build folder
+  std::string path;       ///< relative to the build folder
   std::string bad_input;  ///< arguments naming an input that does not exist (or an output that cannot be opened)
 };
 
@@ -69,9 +69,9 @@ TEST_CASE("every program exits 0 after --help, 2 on an unknown option, 2 on an i
 }
 
 TEST_CASE("a program given no arguments at all where it needs some exits 2, never CLI11's own codes") {
-  for (const std::string& p : {"tools/loopd-eval/loopd-eval", "tools/loopd-correct/loopd-correct", "tools/kitti2lcm/kitti2lcm",
-                               "tools/loopd-register/loopd-register", "tools/loopd-bench/loopd-bench", "tools/loopd-compare/loopd-compare",
-                               "tools/loopd-map/loopd-map"}) {
+  for (const std::string& p :
+       {"tools/loopd-eval/loopd-eval", "tools/loopd-correct/loopd-correct", "tools/kitti2lcm/kitti2lcm", "tools/loopd-register/loopd-register",
+        "tools/loopd-bench/loopd-bench", "tools/loopd-compare/loopd-compare", "tools/loopd-map/loopd-map"}) {
     INFO(p);
     CHECK(status_of(kBin + "/" + p) == 2);
   }
