@@ -497,6 +497,25 @@ bool check_receive_buffer(const std::string& lcm_url, std::int64_t points) {
   return true;
 }
 
+/// The map's writer between the engine and the outputs (live and replay alike): it commits each record before passing
+/// it on; a republish filter keeps a resumed run from publishing twice; in a fleet the joint correction is published.
+void wire_map_writer(const NodeConfig& node, const std::string& sensor, const std::string& origin, EngineSink& sink,
+                     LocalCorrectionFilter& fleet_output, MapSession& map) {
+  if (!map.store) return;
+  map.republish = std::make_unique<RepublishFilter>(node.fleet.vehicle >= 0 ? static_cast<EngineSink&>(fleet_output) : sink);
+  map.writer = std::make_unique<MapWriter>(*map.store, *map.republish, node.log_every_n, fault_correction_delay_ms());
+  map.writer->set_session_origin(sensor, origin);
+  map.writer->set_max_buffered_keyframes(node.max_buffered_keyframes);
+  map.writer->set_retry_period(node.map_retry_period);
+}
+
+/// The engine reads keyframes' prepared scans back from the map (bounded cache) and stores map clouds there.
+void attach_map(const NodeConfig& node, const MapSession& map, LoopdEngine& engine) {
+  if (!map.store) return;
+  if (node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
+  engine.make_map_clouds();
+}
+
 int run_live(const NodeConfig& node, const EngineConfig& engine_config, const std::atomic<bool>& stop, RunSummary* summary) {
   lcm::LCM lcm(node.lcm_url);
   if (!lcm.good()) {
@@ -512,21 +531,14 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   if (!open_map(node, &map)) return 2;
   OutputSink sink(node, &lcm, nullptr, false);
   LocalCorrectionFilter fleet_output(sink);  // in a fleet the joint correction is published, not the detector's
-  if (map.store) {
-    map.republish = std::make_unique<RepublishFilter>(node.fleet.vehicle >= 0 ? static_cast<EngineSink&>(fleet_output) : sink);
-    map.writer = std::make_unique<MapWriter>(*map.store, *map.republish, node.log_every_n, fault_correction_delay_ms());
-    map.writer->set_session_origin(engine_config.detector.sensor, "live " + node.lcm_url);
-    map.writer->set_max_buffered_keyframes(node.max_buffered_keyframes);
-    map.writer->set_retry_period(node.map_retry_period);
-  }
+  wire_map_writer(node, engine_config.detector.sensor, "live " + node.lcm_url, sink, fleet_output, map);
   EngineSink* first_sink = map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink;
   const std::unique_ptr<FaultStallSink> stall = fault_stall_sink(*first_sink);
   if (stall) first_sink = stall.get();
   EngineConfig live_config = engine_config;
   live_config.detector.parallel_candidates = true;  // spare cores shorten the latency tail; same decisions
   LoopdEngine engine(live_config, first_sink);
-  if (map.store && node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
-  if (map.store) engine.make_map_clouds();
+  attach_map(node, map, engine);
   if (!resume_from_map(map, engine, false, engine_config, "live " + node.lcm_url)) return 2;
   const std::unique_ptr<FleetSync> fleet = start_fleet(node, engine_config, map, engine, sink);
   if (node.fleet.vehicle >= 0 && !fleet) return 2;
@@ -631,16 +643,9 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   config.block_when_full = true;  // replay never sheds: it waits for the workers
   OutputSink sink(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
   LocalCorrectionFilter fleet_output(sink);  // in a fleet the joint correction is published, not the detector's
-  if (map.store) {
-    map.republish = std::make_unique<RepublishFilter>(node.fleet.vehicle >= 0 ? static_cast<EngineSink&>(fleet_output) : sink);
-    map.writer = std::make_unique<MapWriter>(*map.store, *map.republish, node.log_every_n, fault_correction_delay_ms());
-    map.writer->set_session_origin(engine_config.detector.sensor, "replay " + input_log);
-    map.writer->set_max_buffered_keyframes(node.max_buffered_keyframes);
-    map.writer->set_retry_period(node.map_retry_period);
-  }
+  wire_map_writer(node, engine_config.detector.sensor, "replay " + input_log, sink, fleet_output, map);
   LoopdEngine engine(config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
-  if (map.store && node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
-  if (map.store) engine.make_map_clouds();
+  attach_map(node, map, engine);
   if (!resume_from_map(map, engine, true, engine_config, "replay " + input_log)) return 2;
   const std::unique_ptr<FleetSync> fleet = start_fleet(node, engine_config, map, engine, sink);
   if (node.fleet.vehicle >= 0 && !fleet) return 2;
