@@ -63,148 +63,191 @@ int fail(const std::string& msg, int status = loopd::tools::kExitUsage) {
   return status;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"kitti2lcm: KITTI odometry sequence -> LCM drive log (LIDAR_SCAN, GROUND_TRUTH_POSE, ODOMETRY_POSE)"};
+struct Options {
   std::string sequence, poses_path, out, calib_path, times_path, odometry_path, frame = "velodyne", sensor;
   std::int64_t max_frames = -1, utime_offset = 1000000;
   double period = 0.0;
   bool skip_missing = false, json = false, quiet = false;
   OdometryDriftConfig drift;
   std::string scan_channel = channels::kScan, gt_channel = channels::kGroundTruth, odom_channel = channels::kPose;
-  app.add_option("--sequence", sequence, "sequence folder: sequences/NN (scans in NN/velodyne/NNNNNN.bin) or a folder holding the scans")->required();
-  app.add_option("--poses", poses_path, "ground-truth poses poses/NN.txt (KITTI, camera frame)")->required();
-  app.add_option("--out", out, "output LCM log")->required();
-  app.add_option("--calib", calib_path, "calibration with the 'Tr:' line (default: SEQUENCE/calib.txt)");
-  app.add_option("--times", times_path, "timestamps [s], one a line (default: SEQUENCE/times.txt)");
-  app.add_option("--period", period, "[s] scan period when there is no times file (e.g. 0.1)");
-  app.add_option("--odometry", odometry_path, "odometry poses (KITTI format, camera frame) instead of injected drift");
-  app.add_option("--drift-seed", drift.seed, "seed of the injected odometry drift")->capture_default_str();
-  app.add_option("--heading-bias", drift.heading_bias_deg_per_m, "[deg/m] injected yaw bias")->capture_default_str();
-  app.add_option("--scale-bias", drift.scale_bias, "injected relative step-length error")->capture_default_str();
-  app.add_option("--yaw-walk", drift.yaw_random_walk_deg, "[deg/sqrt(step)] injected yaw random walk")->capture_default_str();
-  app.add_option("--translation-noise", drift.translation_noise, "[m/sqrt(step)] injected translation noise")->capture_default_str();
-  app.add_option("--residual-base", drift.residual_base, "[m] residual of an unperturbed step")->capture_default_str();
-  app.add_option("--max-frames", max_frames, "convert at most this many frames");
-  app.add_option("--utime-offset", utime_offset, "[us] added to times (utime = offset + time * 1e6)")->capture_default_str();
-  app.add_option("--sensor", sensor, "fill ring indices from point elevations with this lidar model (KITTI: hdl64); default: no rings");
-  app.add_option("--frame", frame, "sensor frame name in point_cloud_t")->capture_default_str();
-  app.add_flag("--skip-missing-scans", skip_missing, "frames without a scan file still get poses (default: a missing scan is an error)");
-  app.add_option("--scan-channel", scan_channel)->capture_default_str();
-  app.add_option("--ground-truth-channel", gt_channel)->capture_default_str();
-  app.add_option("--odometry-channel", odom_channel)->capture_default_str();
-  app.add_flag("--json", json, "print one JSON object as the last stdout line");
-  app.add_flag("--quiet", quiet, "no progress bar");
-  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
-  if (auto e = drift.validate()) return fail(*e);
-  std::optional<LidarModel> model;
-  if (!sensor.empty()) {
-    model = lidar_model_from_name(sensor);
-    if (!model) return fail("unknown --sensor '" + sensor + "'");
-  }
+};
 
+void add_options(CLI::App& app, Options& o) {
+  app.add_option("--sequence", o.sequence, "sequence folder: sequences/NN (scans in NN/velodyne/NNNNNN.bin) or a folder holding the scans")
+      ->required();
+  app.add_option("--poses", o.poses_path, "ground-truth poses poses/NN.txt (KITTI, camera frame)")->required();
+  app.add_option("--out", o.out, "output LCM log")->required();
+  app.add_option("--calib", o.calib_path, "calibration with the 'Tr:' line (default: SEQUENCE/calib.txt)");
+  app.add_option("--times", o.times_path, "timestamps [s], one a line (default: SEQUENCE/times.txt)");
+  app.add_option("--period", o.period, "[s] scan period when there is no times file (e.g. 0.1)");
+  app.add_option("--odometry", o.odometry_path, "odometry poses (KITTI format, camera frame) instead of injected drift");
+  app.add_option("--drift-seed", o.drift.seed, "seed of the injected odometry drift")->capture_default_str();
+  app.add_option("--heading-bias", o.drift.heading_bias_deg_per_m, "[deg/m] injected yaw bias")->capture_default_str();
+  app.add_option("--scale-bias", o.drift.scale_bias, "injected relative step-length error")->capture_default_str();
+  app.add_option("--yaw-walk", o.drift.yaw_random_walk_deg, "[deg/sqrt(step)] injected yaw random walk")->capture_default_str();
+  app.add_option("--translation-noise", o.drift.translation_noise, "[m/sqrt(step)] injected translation noise")->capture_default_str();
+  app.add_option("--residual-base", o.drift.residual_base, "[m] residual of an unperturbed step")->capture_default_str();
+  app.add_option("--max-frames", o.max_frames, "convert at most this many frames");
+  app.add_option("--utime-offset", o.utime_offset, "[us] added to times (utime = offset + time * 1e6)")->capture_default_str();
+  app.add_option("--sensor", o.sensor, "fill ring indices from point elevations with this lidar model (KITTI: hdl64); default: no rings");
+  app.add_option("--frame", o.frame, "sensor frame name in point_cloud_t")->capture_default_str();
+  app.add_flag("--skip-missing-scans", o.skip_missing, "frames without a scan file still get poses (default: a missing scan is an error)");
+  app.add_option("--scan-channel", o.scan_channel)->capture_default_str();
+  app.add_option("--ground-truth-channel", o.gt_channel)->capture_default_str();
+  app.add_option("--odometry-channel", o.odom_channel)->capture_default_str();
+  app.add_flag("--json", o.json, "print one JSON object as the last stdout line");
+  app.add_flag("--quiet", o.quiet, "no progress bar");
+}
+
+/// @brief What is converted: the lidar's ground truth and odometry poses, the scan times, the number of frames.
+struct Sequence {
+  std::string velodyne_dir;
+  std::vector<Eigen::Isometry3d> gt, odom;
+  std::vector<double> times, residuals;
+  std::size_t n = 0;
+};
+
+/// @brief The times of every pose: the times file, or the period. Returns an error, or nothing.
+std::optional<std::string> read_times(Options& o, Sequence& s) {
+  std::error_code fs_error;
+  if (o.times_path.empty() && fs::exists(o.sequence + "/times.txt", fs_error)) o.times_path = o.sequence + "/times.txt";
+  if (!o.times_path.empty()) {
+    KittiTimes read = read_kitti_times(o.times_path);
+    if (!read.ok) return read.error;
+    s.times = std::move(read.seconds);
+    if (s.times.size() < s.gt.size())
+      return o.times_path + " has " + std::to_string(s.times.size()) + " times but " + o.poses_path + " has " + std::to_string(s.gt.size()) +
+             " poses";
+  } else if (o.period > 0.0) {
+    for (std::size_t i = 0; i < s.gt.size(); ++i) s.times.push_back(static_cast<double>(i) * o.period);
+  } else {
+    return "no times file (" + o.sequence + "/times.txt not found): give --times FILE or --period SECONDS";
+  }
+  return std::nullopt;
+}
+
+/// @brief The odometry: a given file's, or the ground truth with injected drift. Returns an error, or nothing.
+std::optional<std::string> make_odometry(const Options& o, const Eigen::Isometry3d& T_cam_velo, Sequence& s) {
+  if (!o.odometry_path.empty()) {
+    const TrajectoryFile cam_odom = read_trajectory(o.odometry_path, TrajectoryFormat::kKitti);
+    if (!cam_odom.ok) return cam_odom.error;
+    if (cam_odom.poses.size() < s.n)
+      return o.odometry_path + " has " + std::to_string(cam_odom.poses.size()) + " poses, fewer than the " + std::to_string(s.n) +
+             " frames converted";
+    s.odom = kitti_camera_to_lidar(cam_odom.poses, T_cam_velo);
+    s.residuals.assign(s.odom.size(), 0.0);
+    return std::nullopt;
+  }
+  const std::vector<Eigen::Isometry3d> head(s.gt.begin(), s.gt.begin() + static_cast<long>(s.n));
+  OdometryDriftResult dr = inject_odometry_drift(head, o.drift);
+  s.odom = std::move(dr.poses);
+  s.residuals = std::move(dr.residuals);
+  return std::nullopt;
+}
+
+/// @brief Reads the sequence's calibration, poses, times and odometry. Returns an error, or nothing.
+std::optional<std::string> read_sequence(Options& o, Sequence& s) {
   std::error_code fs_error;  // the non-throwing overloads: a permission error must not abort the tool
-  if (!fs::is_directory(sequence, fs_error)) return fail("sequence folder " + sequence + " does not exist");
-  const std::string velodyne_dir = fs::is_directory(sequence + "/velodyne", fs_error) ? sequence + "/velodyne" : sequence;
-  if (calib_path.empty()) calib_path = sequence + "/calib.txt";
-  std::string error;
-  if (!fs::exists(calib_path, fs_error)) return fail("calibration file " + calib_path + " not found (give it with --calib)");
-  const KittiCalibration calib = read_kitti_calib_tr(calib_path);
-  if (!calib.ok) return fail(calib.error);
-  const Eigen::Isometry3d& T_cam_velo = calib.T_cam_velo;
-  const TrajectoryFile cam_poses = read_trajectory(poses_path, TrajectoryFormat::kKitti);
-  if (!cam_poses.ok) return fail(cam_poses.error);
-  const std::vector<Eigen::Isometry3d> gt = kitti_camera_to_lidar(cam_poses.poses, T_cam_velo);
+  if (!fs::is_directory(o.sequence, fs_error)) return "sequence folder " + o.sequence + " does not exist";
+  s.velodyne_dir = fs::is_directory(o.sequence + "/velodyne", fs_error) ? o.sequence + "/velodyne" : o.sequence;
+  if (o.calib_path.empty()) o.calib_path = o.sequence + "/calib.txt";
+  if (!fs::exists(o.calib_path, fs_error)) return "calibration file " + o.calib_path + " not found (give it with --calib)";
+  const KittiCalibration calib = read_kitti_calib_tr(o.calib_path);
+  if (!calib.ok) return calib.error;
+  const TrajectoryFile cam_poses = read_trajectory(o.poses_path, TrajectoryFormat::kKitti);
+  if (!cam_poses.ok) return cam_poses.error;
+  s.gt = kitti_camera_to_lidar(cam_poses.poses, calib.T_cam_velo);
+  if (auto e = read_times(o, s)) return e;
+  s.n = s.gt.size();
+  if (o.max_frames >= 0) s.n = std::min(s.n, static_cast<std::size_t>(o.max_frames));
+  if (s.n == 0) return std::string("nothing to convert (--max-frames 0)");
+  return make_odometry(o, calib.T_cam_velo, s);
+}
 
-  std::vector<double> times;
-  if (times_path.empty() && fs::exists(sequence + "/times.txt", fs_error)) times_path = sequence + "/times.txt";
-  if (!times_path.empty()) {
-    KittiTimes read = read_kitti_times(times_path);
-    if (!read.ok) return fail(read.error);
-    times = std::move(read.seconds);
-    if (times.size() < gt.size())
-      return fail(times_path + " has " + std::to_string(times.size()) + " times but " + poses_path + " has " + std::to_string(gt.size()) + " poses");
-  } else if (period > 0.0) {
-    for (std::size_t i = 0; i < gt.size(); ++i) times.push_back(static_cast<double>(i) * period);
-  } else {
-    return fail("no times file (" + sequence + "/times.txt not found): give --times FILE or --period SECONDS");
-  }
-
-  std::size_t n = gt.size();
-  if (max_frames >= 0) n = std::min(n, static_cast<std::size_t>(max_frames));
-  if (n == 0) return fail("nothing to convert (--max-frames 0)");
-  std::vector<Eigen::Isometry3d> odom;
-  std::vector<double> residuals;
-  if (!odometry_path.empty()) {
-    const TrajectoryFile cam_odom = read_trajectory(odometry_path, TrajectoryFormat::kKitti);
-    if (!cam_odom.ok) return fail(cam_odom.error);
-    if (cam_odom.poses.size() < n)
-      return fail(odometry_path + " has " + std::to_string(cam_odom.poses.size()) + " poses, fewer than the " + std::to_string(n) +
-                  " frames converted");
-    odom = kitti_camera_to_lidar(cam_odom.poses, T_cam_velo);
-    residuals.assign(odom.size(), 0.0);
-  } else {
-    const std::vector<Eigen::Isometry3d> head(gt.begin(), gt.begin() + static_cast<long>(n));
-    OdometryDriftResult dr = inject_odometry_drift(head, drift);
-    odom = std::move(dr.poses);
-    residuals = std::move(dr.residuals);
-  }
-
-  LogWriter writer;
-  if (!writer.open(out, &error)) return fail(error);
-  Progress bar("kitti2lcm", static_cast<std::int64_t>(n), !quiet);
+struct Written {
   std::int64_t scans = 0, missing = 0, points = 0;
+};
+
+/// @brief Writes every frame's poses and scan. Returns the exit status when it cannot.
+std::optional<int> write_log(const Options& o, const Sequence& s, const std::optional<LidarModel>& model, Written& w) {
+  LogWriter writer;
+  std::string error;
+  if (!writer.open(o.out, &error)) return fail(error);
+  Progress bar("kitti2lcm", static_cast<std::int64_t>(s.n), !o.quiet);
   PointCloud cloud;
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::int64_t utime = utime_offset + static_cast<std::int64_t>(std::llround(times[i] * 1e6));
+  for (std::size_t i = 0; i < s.n; ++i) {
+    const std::int64_t utime = o.utime_offset + static_cast<std::int64_t>(std::llround(s.times[i] * 1e6));
     const auto seq = static_cast<std::int64_t>(i);
-    if (!writer.write_message(gt_channel, utime, pose_message(utime, seq, gt[i], 0.0)) ||
-        !writer.write_message(odom_channel, utime, pose_message(utime, seq, odom[i], residuals[i])))
-      return fail("cannot write to " + out, loopd::tools::kExitProblem);
-    const std::string scan = scan_path(velodyne_dir, i);
+    if (!writer.write_message(o.gt_channel, utime, pose_message(utime, seq, s.gt[i], 0.0)) ||
+        !writer.write_message(o.odom_channel, utime, pose_message(utime, seq, s.odom[i], s.residuals[i])))
+      return fail("cannot write to " + o.out, loopd::tools::kExitProblem);
+    const std::string scan = scan_path(s.velodyne_dir, i);
     if (scan.empty()) {
-      if (!skip_missing) {
+      if (!o.skip_missing) {
         char name[32];
         std::snprintf(name, sizeof(name), "%06zu.bin", i);
-        return fail("scan " + velodyne_dir + "/" + name + " not found (frame " + std::to_string(i) +
+        return fail("scan " + s.velodyne_dir + "/" + name + " not found (frame " + std::to_string(i) +
                     "; --skip-missing-scans writes poses without it, --max-frames converts fewer frames)");
       }
-      ++missing;
+      ++w.missing;
     } else {
       CloudFile read = read_cloud_file(scan);
       if (!read.ok) return fail(read.error);
       cloud = std::move(read.cloud);
       if (model) assign_rings(*model, &cloud);
       cloud.time.clear();  // KITTI scans have no per-point times: point_cloud_t.num_point_times = 0 (unknown)
-      if (!writer.write_message(scan_channel, utime, to_message(cloud, utime, seq, frame)))
-        return fail("cannot write to " + out, loopd::tools::kExitProblem);
-      ++scans;
-      points += static_cast<std::int64_t>(cloud.size());
+      if (!writer.write_message(o.scan_channel, utime, to_message(cloud, utime, seq, o.frame)))
+        return fail("cannot write to " + o.out, loopd::tools::kExitProblem);
+      ++w.scans;
+      w.points += static_cast<std::int64_t>(cloud.size());
     }
     bar.update(static_cast<std::int64_t>(i + 1));
   }
   bar.finish();
   writer.close();
-  std::error_code ec;
-  const auto bytes = static_cast<std::int64_t>(fs::file_size(out, ec));
+  return std::nullopt;
+}
 
+void report(const Options& o, const Sequence& s, const Written& w) {
+  std::error_code ec;
+  const auto bytes = static_cast<std::int64_t>(fs::file_size(o.out, ec));
+  const double final_error = (s.odom[s.n - 1].translation() - s.gt[s.n - 1].translation()).norm();
   Table t({"kitti2lcm", "value"});
-  t.add({"frames", std::to_string(n)});
-  t.add({"scans written", std::to_string(scans)});
-  t.add({"frames without scan", std::to_string(missing)});
-  t.add({"points per scan (mean)", scans > 0 ? std::to_string(points / scans) : "-"});
-  t.add({"odometry", odometry_path.empty() ? "ground truth + drift (seed " + std::to_string(drift.seed) + ")" : odometry_path});
-  t.add({"final odometry error [m]", fmt((odom[n - 1].translation() - gt[n - 1].translation()).norm())});
-  t.add({"output", out + " (" + fmt(static_cast<double>(bytes) / 1e6, 1) + " MB)"});
+  t.add({"frames", std::to_string(s.n)});
+  t.add({"scans written", std::to_string(w.scans)});
+  t.add({"frames without scan", std::to_string(w.missing)});
+  t.add({"points per scan (mean)", w.scans > 0 ? std::to_string(w.points / w.scans) : "-"});
+  t.add({"odometry", o.odometry_path.empty() ? "ground truth + drift (seed " + std::to_string(o.drift.seed) + ")" : o.odometry_path});
+  t.add({"final odometry error [m]", fmt(final_error)});
+  t.add({"output", o.out + " (" + fmt(static_cast<double>(bytes) / 1e6, 1) + " MB)"});
   std::cout << t.str();
-  if (json)
-    print_json_line({{"frames", n},
-                     {"scans", scans},
-                     {"missing_scans", missing},
-                     {"points", points},
+  if (o.json)
+    print_json_line({{"frames", s.n},
+                     {"scans", w.scans},
+                     {"missing_scans", w.missing},
+                     {"points", w.points},
                      {"bytes", bytes},
-                     {"final_odometry_error", (odom[n - 1].translation() - gt[n - 1].translation()).norm()},
-                     {"out", out}});
-  return 0;
+                     {"final_odometry_error", final_error},
+                     {"out", o.out}});
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"kitti2lcm: KITTI odometry sequence -> LCM drive log (LIDAR_SCAN, GROUND_TRUTH_POSE, ODOMETRY_POSE)"};
+  Options o;
+  add_options(app, o);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
+  if (auto e = o.drift.validate()) return fail(*e);
+  std::optional<LidarModel> model;
+  if (!o.sensor.empty()) {
+    model = lidar_model_from_name(o.sensor);
+    if (!model) return fail("unknown --sensor '" + o.sensor + "'");
+  }
+  Sequence s;
+  if (auto e = read_sequence(o, s)) return fail(*e);
+  Written w;
+  if (auto rc = write_log(o, s, model, w)) return *rc;
+  report(o, s, w);
+  return loopd::tools::kExitOk;
 }
