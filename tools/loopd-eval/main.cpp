@@ -237,93 +237,59 @@ nlohmann::json report_json(const EvalReport& rep, const LogReadStats& drive_stat
   return j;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"loopd-eval: loop detection, loop closure and pose error of loopd's output against ground truth"};
+/// @brief The command line.
+struct Args {
   std::vector<std::string> drives, results;
   std::string plots_dir, tum_dir, kitti_dir, loops_csv;
   bool json = false, quiet = false;
   EvalConfig config;
   EvalChannels ch;
   MapEvalOptions map_options;
-  app.add_option("--drive", drives,
+};
+
+void add_options(CLI::App& app, Args& a) {
+  app.add_option("--drive", a.drives,
                  "drive log (lcm-logger) with LIDAR_SCAN, ODOMETRY_POSE, GROUND_TRUTH_POSE; once per session's drive, in order "
                  "(keyframes find their ground truth by utime in any of them)")
       ->required()
       ->take_all()
       ->check(CLI::ExistingFile);
-  app.add_option("--results", results,
+  app.add_option("--results", a.results,
                  "loopd's output log with LOOP_EVENT and CORRECTED_TRAJECTORY; more than once: loop events of all, the trajectory of "
                  "the log whose last revision holds the most keyframes")
       ->required()
       ->take_all()
       ->check(CLI::ExistingFile);
-  app.add_option("--mapped-radius", config.sessions.mapped_radius,
+  app.add_option("--mapped-radius", a.config.sessions.mapped_radius,
                  "[m] sessions: a place of a later session is in the mapped area within this of an earlier session's keyframe")
       ->capture_default_str();
   app.footer(kSessionsHelp);
-  app.add_flag("--json", json, "print one JSON object as the last stdout line");
-  app.add_option("--plots", plots_dir, "write trajectories and PR-curve pictures (PNG + SVG) into this folder");
-  app.add_option("--export-tum", tum_dir, "write ground truth, odometry and corrected keyframe trajectories (TUM)");
-  app.add_option("--export-kitti", kitti_dir, "same in KITTI format (12 numbers a line)");
-  app.add_option("--export-loops", loops_csv, "write one CSV line per accepted loop: its keyframes, frame gap and error against ground truth");
-  app.add_option("--loop-distance", config.ground_truth.max_distance, "[m] ground-truth loop: closer than this")->capture_default_str();
-  app.add_option("--min-frame-gap", config.ground_truth.min_frame_gap, "ground-truth loop: more than this many scans apart")->capture_default_str();
-  app.add_flag("--planar", config.ground_truth.planar, "measure loop distances in the ground plane (x, y), not 3D");
-  app.add_option("--closure-translation", config.closure_max_translation,
+  app.add_flag("--json", a.json, "print one JSON object as the last stdout line");
+  app.add_option("--plots", a.plots_dir, "write trajectories and PR-curve pictures (PNG + SVG) into this folder");
+  app.add_option("--export-tum", a.tum_dir, "write ground truth, odometry and corrected keyframe trajectories (TUM)");
+  app.add_option("--export-kitti", a.kitti_dir, "same in KITTI format (12 numbers a line)");
+  app.add_option("--export-loops", a.loops_csv, "write one CSV line per accepted loop: its keyframes, frame gap and error against ground truth");
+  app.add_option("--loop-distance", a.config.ground_truth.max_distance, "[m] ground-truth loop: closer than this")->capture_default_str();
+  app.add_option("--min-frame-gap", a.config.ground_truth.min_frame_gap, "ground-truth loop: more than this many scans apart")->capture_default_str();
+  app.add_flag("--planar", a.config.ground_truth.planar, "measure loop distances in the ground plane (x, y), not 3D");
+  app.add_option("--closure-translation", a.config.closure_max_translation,
                  "[m] accepted loop correct when T_match_query is within this of ground truth")
       ->capture_default_str();
-  app.add_option("--closure-rotation", config.closure_max_rotation_deg, "[deg] ... and within this rotation")->capture_default_str();
-  app.add_option("--scan-channel", ch.scan)->capture_default_str();
-  app.add_option("--odometry-channel", ch.odometry)->capture_default_str();
-  app.add_option("--ground-truth-channel", ch.ground_truth)->capture_default_str();
-  app.add_option("--loop-channel", ch.loop_event)->capture_default_str();
-  app.add_option("--trajectory-channel", ch.trajectory)->capture_default_str();
-  app.add_flag("--quiet", quiet, "no progress bar");
-  add_map_options(app, &map_options);
-  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
-  if (auto e = config.validate(); e || (e = map_options.validate())) {
-    std::cerr << "loopd-eval: " << *e << "\n";
-    return 2;
-  }
+  app.add_option("--closure-rotation", a.config.closure_max_rotation_deg, "[deg] ... and within this rotation")->capture_default_str();
+  app.add_option("--scan-channel", a.ch.scan)->capture_default_str();
+  app.add_option("--odometry-channel", a.ch.odometry)->capture_default_str();
+  app.add_option("--ground-truth-channel", a.ch.ground_truth)->capture_default_str();
+  app.add_option("--loop-channel", a.ch.loop_event)->capture_default_str();
+  app.add_option("--trajectory-channel", a.ch.trajectory)->capture_default_str();
+  app.add_flag("--quiet", a.quiet, "no progress bar");
+  add_map_options(app, &a.map_options);
+}
 
-  EvalInput input;
-  LogReadStats drive_stats, result_stats;
-  std::vector<DriveSpan> spans;
-  if (!read_logs(drives, results, ch, quiet, &input, &spans, &drive_stats, &result_stats)) return tools::kExitUsage;
-  const EvalReport rep = evaluate(input, config);
-  if (!rep.ok) {  // the logs hold nothing to evaluate (no ground truth, no keyframes): bad input
-    std::cerr << "loopd-eval: " << rep.error << "\n";
-    return tools::kExitUsage;
-  }
-  MapEvalReport map_report;
-  std::string map_error;
-  if (!run_map_eval(map_options, drives, ch, input, quiet, &map_report, &map_error)) {
-    std::cerr << "loopd-eval: " << map_error << "\n";
-    return tools::kExitUsage;
-  }
-  std::vector<std::string> warnings = rep.warnings;
-  warnings.insert(warnings.end(), map_report.warnings.begin(), map_report.warnings.end());
-  if (result_stats.loop_events == 0) warnings.push_back("the results log holds no loop events");
-  if (result_stats.repeated_events > 0)
-    warnings.push_back(std::to_string(result_stats.repeated_events) + " loop events repeat an earlier event_id: the later ones are used");
-  if (drive_stats.malformed + result_stats.malformed > 0)
-    warnings.push_back(std::to_string(drive_stats.malformed + result_stats.malformed) + " undecodable events skipped");
-
-  std::vector<std::string> pictures;
-  if (!plots_dir.empty()) {
-    std::string perr;
-    pictures = write_plots(plots_dir, input, rep, &perr);
-    if (!perr.empty()) warnings.push_back(perr);
-  }
-  for (const auto& [dir, kitti] : {std::make_pair(tum_dir, false), std::make_pair(kitti_dir, true)}) {
-    if (dir.empty()) continue;
-    std::string eerr;
-    if (!export_trajectories(dir, rep, kitti, &eerr)) warnings.push_back("export failed: " + eerr);
-  }
-  if (std::string lerr; !loops_csv.empty() && !export_loop_errors(loops_csv, input, rep, &lerr)) warnings.push_back("export failed: " + lerr);
-
+/// @brief The tables: what was read, loop detection, loop closure, pose error, sessions, the 3D map, timing.
+void print_tables(const Args& a, const EvalReport& rep, const LogReadStats& drive_stats, const LogReadStats& result_stats,
+                  const std::vector<DriveSpan>& spans, const MapEvalReport& map_report) {
+  const std::vector<std::string>& drives = a.drives;
+  const EvalConfig& config = a.config;
   const auto& d = rep.detection;
   const auto& c = rep.closure;
   if (spans.size() > 1)
@@ -375,6 +341,63 @@ int main(int argc, char** argv) {
                                                                {"total", &rep.ms_total}};
   for (const auto& [name, t] : stages) tim.add({name, fmt(t->median, 1), fmt(t->p95, 1), fmt(t->max, 1), std::to_string(t->count)});
   std::cout << tim.str();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"loopd-eval: loop detection, loop closure and pose error of loopd's output against ground truth"};
+  Args args;
+  add_options(app, args);
+  const std::vector<std::string>& drives = args.drives;
+  const EvalConfig& config = args.config;
+  const EvalChannels& ch = args.ch;
+  const MapEvalOptions& map_options = args.map_options;
+  const bool &quiet = args.quiet, &json = args.json;  // references: filled by the parse below
+  const std::string &plots_dir = args.plots_dir, &tum_dir = args.tum_dir, &kitti_dir = args.kitti_dir, &loops_csv = args.loops_csv;
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
+  if (auto e = config.validate(); e || (e = map_options.validate())) {
+    std::cerr << "loopd-eval: " << *e << "\n";
+    return 2;
+  }
+
+  EvalInput input;
+  LogReadStats drive_stats, result_stats;
+  std::vector<DriveSpan> spans;
+  if (!read_logs(drives, args.results, ch, quiet, &input, &spans, &drive_stats, &result_stats)) return tools::kExitUsage;
+  const EvalReport rep = evaluate(input, config);
+  if (!rep.ok) {  // the logs hold nothing to evaluate (no ground truth, no keyframes): bad input
+    std::cerr << "loopd-eval: " << rep.error << "\n";
+    return tools::kExitUsage;
+  }
+  MapEvalReport map_report;
+  std::string map_error;
+  if (!run_map_eval(map_options, drives, ch, input, quiet, &map_report, &map_error)) {
+    std::cerr << "loopd-eval: " << map_error << "\n";
+    return tools::kExitUsage;
+  }
+  std::vector<std::string> warnings = rep.warnings;
+  warnings.insert(warnings.end(), map_report.warnings.begin(), map_report.warnings.end());
+  if (result_stats.loop_events == 0) warnings.push_back("the results log holds no loop events");
+  if (result_stats.repeated_events > 0)
+    warnings.push_back(std::to_string(result_stats.repeated_events) + " loop events repeat an earlier event_id: the later ones are used");
+  if (drive_stats.malformed + result_stats.malformed > 0)
+    warnings.push_back(std::to_string(drive_stats.malformed + result_stats.malformed) + " undecodable events skipped");
+
+  std::vector<std::string> pictures;
+  if (!plots_dir.empty()) {
+    std::string perr;
+    pictures = write_plots(plots_dir, input, rep, &perr);
+    if (!perr.empty()) warnings.push_back(perr);
+  }
+  for (const auto& [dir, kitti] : {std::make_pair(tum_dir, false), std::make_pair(kitti_dir, true)}) {
+    if (dir.empty()) continue;
+    std::string eerr;
+    if (!export_trajectories(dir, rep, kitti, &eerr)) warnings.push_back("export failed: " + eerr);
+  }
+  if (std::string lerr; !loops_csv.empty() && !export_loop_errors(loops_csv, input, rep, &lerr)) warnings.push_back("export failed: " + lerr);
+
+  print_tables(args, rep, drive_stats, result_stats, spans, map_report);
   for (const auto& p : pictures) std::cout << "picture: " << p << "\n";
   for (const auto& w : warnings) std::cout << "warning: " << w << "\n";
 
