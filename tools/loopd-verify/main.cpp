@@ -19,6 +19,82 @@ using namespace loopd;
 
 namespace {
 double json_number(double v) { return std::isfinite(v) ? v : 1e300; }
+
+/// @brief What one verification found, with what it was given: printed as a table or as JSON.
+struct Outcome {
+  VerifyResult r;
+  PreparedScan query, match;
+  SensorEstimate query_seen, match_seen;
+  std::string sensor;
+  double scale_query = 0.0, scale_match = 0.0;
+};
+
+void print_json(const Outcome& o) {
+  const VerifyResult& r = o.r;
+  const PreparedScan &query = o.query, &match = o.match;
+  double T[16];
+  to_row_major(r.T_match_query, T);
+  nlohmann::json j;
+  j["accepted"] = r.accepted;
+  j["stage"] = to_string(r.stage);
+  j["reason"] = r.reason;
+  j["T_match_query"] = std::vector<double>(T, T + 16);
+  j["scores"] = {{"lcp_fraction", r.lcp_fraction},
+                 {"icp_residual", r.icp_residual},
+                 {"icp_fitness", r.icp_fitness},
+                 {"degeneracy", json_number(r.degeneracy)},
+                 {"degenerate", r.degenerate},
+                 {"hungarian_consistency", r.hungarian_consistency},
+                 {"icp_iterations", r.icp_iterations},
+                 {"icp_converged", r.icp_converged},
+                 {"clusters_query", r.clusters_query},
+                 {"clusters_match", r.clusters_match},
+                 {"clusters_matched", r.clusters_matched}};
+  // Top-level copies of the scores for flat consumers.
+  for (const auto& [k, v] : j["scores"].items()) j[k] = v;
+  j["ms"] = {{"fourpcs", r.ms_fourpcs},         {"gicp", r.ms_gicp},
+             {"hungarian", r.ms_hungarian},     {"total", r.ms_total},
+             {"prepare_query", query.ms_total}, {"prepare_match", match.ms_total}};
+  std::vector<double> info(r.information.data(), r.information.data() + 36);  // (t, r) order, core/information.hpp
+  j["information"] = info;
+  j["points"] = {{"query", query.points.size()}, {"match", match.points.size()}};
+  j["sensor"] = {{"choice", o.sensor}, {"query", o.query_seen.describe()}, {"match", o.match_seen.describe()}};
+  j["scene_scale"] = {{"query", o.scale_query}, {"match", o.scale_match}};
+  j["bytes"] = {{"query", query.bytes()}, {"match", match.bytes()}};
+  tools::print_json_line(j);
+}
+
+void print_table(const Outcome& o) {
+  const VerifyResult& r = o.r;
+  const PreparedScan &query = o.query, &match = o.match;
+  double T[16];
+  to_row_major(r.T_match_query, T);
+  std::cout << (r.accepted ? "ACCEPTED" : "REJECTED") << " at stage " << to_string(r.stage) << (r.reason.empty() ? "" : ": " + r.reason) << "\n\n";
+  tools::Table scores({"score", "value"});
+  scores.add({"4PCS LCP fraction", tools::fmt(r.lcp_fraction)});
+  scores.add({"GICP residual [m]", tools::fmt(r.icp_residual)});
+  scores.add({"GICP fitness", tools::fmt(r.icp_fitness)});
+  scores.add({"GICP iterations / converged", std::to_string(r.icp_iterations) + " / " + (r.icp_converged ? "yes" : "no")});
+  scores.add({"degeneracy (cond. number)", tools::fmt(r.degeneracy, 1) + (r.degenerate ? "  DEGENERATE" : "")});
+  scores.add({"Hungarian consistency", tools::fmt(r.hungarian_consistency) + " (" + std::to_string(r.clusters_matched) + " of " +
+                                           std::to_string(r.clusters_query) + "/" + std::to_string(r.clusters_match) + ")"});
+  std::cout << scores.str() << "\n";
+  tools::Table ms({"stage", "ms"});
+  ms.add({"prepare query", tools::fmt(query.ms_total, 1)});
+  ms.add({"prepare match", tools::fmt(match.ms_total, 1)});
+  ms.add({"4PCS", tools::fmt(r.ms_fourpcs, 1)});
+  ms.add({"GICP", tools::fmt(r.ms_gicp, 1)});
+  ms.add({"Hungarian", tools::fmt(r.ms_hungarian, 2)});
+  ms.add({"verify total", tools::fmt(r.ms_total, 1)});
+  std::cout << ms.str() << "\nT_match_query:\n";
+  for (int i = 0; i < 4; ++i)
+    std::cout << "  " << tools::fmt(T[4 * i], 5) << " " << tools::fmt(T[4 * i + 1], 5) << " " << tools::fmt(T[4 * i + 2], 5) << " "
+              << tools::fmt(T[4 * i + 3], 4) << "\n";
+  std::cout << "sensor " << o.sensor << ": query " << o.query_seen.describe() << "; match " << o.match_seen.describe() << "\n";
+  std::cout << "scene scale [m]: query " << tools::fmt(o.scale_query, 1) << ", match " << tools::fmt(o.scale_match, 1) << "\n";
+  std::cout << "points: query " << query.points.size() << ", match " << match.points.size() << "; keyframe bytes: " << query.bytes() << ", "
+            << match.bytes() << "\n";
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -113,64 +189,10 @@ int main(int argc, char** argv) {
   } else {
     r = verify(query, match, cfg);
   }
-  double T[16];
-  to_row_major(r.T_match_query, T);
-
-  if (json) {
-    nlohmann::json j;
-    j["accepted"] = r.accepted;
-    j["stage"] = to_string(r.stage);
-    j["reason"] = r.reason;
-    j["T_match_query"] = std::vector<double>(T, T + 16);
-    j["scores"] = {{"lcp_fraction", r.lcp_fraction},
-                   {"icp_residual", r.icp_residual},
-                   {"icp_fitness", r.icp_fitness},
-                   {"degeneracy", json_number(r.degeneracy)},
-                   {"degenerate", r.degenerate},
-                   {"hungarian_consistency", r.hungarian_consistency},
-                   {"icp_iterations", r.icp_iterations},
-                   {"icp_converged", r.icp_converged},
-                   {"clusters_query", r.clusters_query},
-                   {"clusters_match", r.clusters_match},
-                   {"clusters_matched", r.clusters_matched}};
-    // Top-level copies of the scores for flat consumers.
-    for (const auto& [k, v] : j["scores"].items()) j[k] = v;
-    j["ms"] = {{"fourpcs", r.ms_fourpcs},         {"gicp", r.ms_gicp},
-               {"hungarian", r.ms_hungarian},     {"total", r.ms_total},
-               {"prepare_query", query.ms_total}, {"prepare_match", match.ms_total}};
-    std::vector<double> info(r.information.data(), r.information.data() + 36);  // (t, r) order, core/information.hpp
-    j["information"] = info;
-    j["points"] = {{"query", query.points.size()}, {"match", match.points.size()}};
-    j["sensor"] = {{"choice", detector.sensor}, {"query", query_seen.describe()}, {"match", match_seen.describe()}};
-    j["scene_scale"] = {{"query", scene_scale(query_cloud)}, {"match", scene_scale(match_cloud)}};
-    j["bytes"] = {{"query", query.bytes()}, {"match", match.bytes()}};
-    tools::print_json_line(j);
-    return 0;
-  }
-  std::cout << (r.accepted ? "ACCEPTED" : "REJECTED") << " at stage " << to_string(r.stage) << (r.reason.empty() ? "" : ": " + r.reason) << "\n\n";
-  tools::Table scores({"score", "value"});
-  scores.add({"4PCS LCP fraction", tools::fmt(r.lcp_fraction)});
-  scores.add({"GICP residual [m]", tools::fmt(r.icp_residual)});
-  scores.add({"GICP fitness", tools::fmt(r.icp_fitness)});
-  scores.add({"GICP iterations / converged", std::to_string(r.icp_iterations) + " / " + (r.icp_converged ? "yes" : "no")});
-  scores.add({"degeneracy (cond. number)", tools::fmt(r.degeneracy, 1) + (r.degenerate ? "  DEGENERATE" : "")});
-  scores.add({"Hungarian consistency", tools::fmt(r.hungarian_consistency) + " (" + std::to_string(r.clusters_matched) + " of " +
-                                           std::to_string(r.clusters_query) + "/" + std::to_string(r.clusters_match) + ")"});
-  std::cout << scores.str() << "\n";
-  tools::Table ms({"stage", "ms"});
-  ms.add({"prepare query", tools::fmt(query.ms_total, 1)});
-  ms.add({"prepare match", tools::fmt(match.ms_total, 1)});
-  ms.add({"4PCS", tools::fmt(r.ms_fourpcs, 1)});
-  ms.add({"GICP", tools::fmt(r.ms_gicp, 1)});
-  ms.add({"Hungarian", tools::fmt(r.ms_hungarian, 2)});
-  ms.add({"verify total", tools::fmt(r.ms_total, 1)});
-  std::cout << ms.str() << "\nT_match_query:\n";
-  for (int i = 0; i < 4; ++i)
-    std::cout << "  " << tools::fmt(T[4 * i], 5) << " " << tools::fmt(T[4 * i + 1], 5) << " " << tools::fmt(T[4 * i + 2], 5) << " "
-              << tools::fmt(T[4 * i + 3], 4) << "\n";
-  std::cout << "sensor " << detector.sensor << ": query " << query_seen.describe() << "; match " << match_seen.describe() << "\n";
-  std::cout << "scene scale [m]: query " << tools::fmt(scene_scale(query_cloud), 1) << ", match " << tools::fmt(scene_scale(match_cloud), 1) << "\n";
-  std::cout << "points: query " << query.points.size() << ", match " << match.points.size() << "; keyframe bytes: " << query.bytes() << ", "
-            << match.bytes() << "\n";
+  const Outcome outcome{r, query, match, query_seen, match_seen, detector.sensor, scene_scale(query_cloud), scene_scale(match_cloud)};
+  if (json)
+    print_json(outcome);
+  else
+    print_table(outcome);
   return 0;
 }
