@@ -15,6 +15,42 @@
 using namespace loopd;
 using loopd::tools::fmt;
 
+namespace {
+
+/// One timed method: its milliseconds and the trajectory error it leaves.
+struct Row {
+  std::string name;
+  tools::Summary ms;
+  TrajectoryError error;
+};
+
+static void print_rows(const std::vector<Row>& rows, const TrajectoryError& before, int poses, std::size_t loops, bool json) {
+  std::cout << "synthetic drive: " << poses << " keyframes, " << loops << " loops, pose error before: mean " << fmt(before.mean_closest)
+            << " m, median " << fmt(before.median_closest) << " m, ATE " << fmt(before.ate_rmse) << " m\n";
+  tools::Table table({"method", "median ms", "p95 ms", "max ms", "runs", "mean err [m]", "median err [m]", "ATE [m]"});
+  nlohmann::json j{{"poses", poses},
+                   {"loops", loops},
+                   {"before", {{"mean_closest", before.mean_closest}, {"median_closest", before.median_closest}, {"ate_rmse", before.ate_rmse}}}};
+  nlohmann::json methods = nlohmann::json::array();
+  for (const Row& r : rows) {
+    table.add({r.name, fmt(r.ms.median, 3), fmt(r.ms.p95, 3), fmt(r.ms.max, 3), std::to_string(r.ms.count), fmt(r.error.mean_closest),
+               fmt(r.error.median_closest), fmt(r.error.ate_rmse)});
+    methods.push_back({{"method", r.name},
+                       {"median_ms", r.ms.median},
+                       {"p95_ms", r.ms.p95},
+                       {"max_ms", r.ms.max},
+                       {"runs", r.ms.count},
+                       {"mean_closest", r.error.mean_closest},
+                       {"median_closest", r.error.median_closest},
+                       {"ate_rmse", r.error.ate_rmse}});
+  }
+  std::cout << table.str();
+  j["methods"] = methods;
+  if (json) tools::print_json_line(j);
+}
+
+}  // namespace
+
 int run_bench_correct(int argc, char** argv) {
   CLI::App app("loopd-bench correct: ms per loop-correction method", "loopd-bench correct");
   int poses = 5000, num_loops = 20, repeats = 20, graph_repeats = 7;
@@ -30,7 +66,7 @@ int run_bench_correct(int argc, char** argv) {
   if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   if (poses < 200 || num_loops < 1 || repeats < 1 || graph_repeats < 1) {
     std::cerr << "loopd-bench correct: need --poses >= 200, --loops >= 1, --repeats >= 1\n";
-    return 1;
+    return tools::kExitUsage;
   }
 
   const auto gt = make_lap_trajectory(poses);
@@ -40,18 +76,13 @@ int run_bench_correct(int argc, char** argv) {
   const auto all_loops = find_ground_truth_loops(gt, 1.0, 100, 20, 0);
   if (all_loops.empty()) {
     std::cerr << "loopd-bench correct: the drive has no loops; use more --poses\n";
-    return 1;
+    return tools::kExitUsage;
   }
   std::vector<LoopConstraint> loops;
   for (int k = 0; k < num_loops; ++k)
     loops.push_back(all_loops[static_cast<std::size_t>(k) * all_loops.size() / static_cast<std::size_t>(num_loops)]);
   loops.erase(std::unique(loops.begin(), loops.end(), [](const auto& a, const auto& b) { return a.query_index == b.query_index; }), loops.end());
 
-  struct Row {
-    std::string name;
-    tools::Summary ms;
-    TrajectoryError error;
-  };
   std::vector<Row> rows;
   auto time_it = [&](const std::string& name, int runs, auto&& fn) {
     std::vector<double> ms;
@@ -97,28 +128,6 @@ int run_bench_correct(int argc, char** argv) {
     rows.push_back({"online heuristic+graph, per loop", tools::summarize(ms), trajectory_error(corrector.corrected_poses(), gt)});
   }
 
-  const TrajectoryError before = trajectory_error(odom.poses, gt);
-  std::cout << "synthetic drive: " << poses << " keyframes, " << loops.size() << " loops, pose error before: mean " << fmt(before.mean_closest)
-            << " m, median " << fmt(before.median_closest) << " m, ATE " << fmt(before.ate_rmse) << " m\n";
-  tools::Table table({"method", "median ms", "p95 ms", "max ms", "runs", "mean err [m]", "median err [m]", "ATE [m]"});
-  nlohmann::json j{{"poses", poses},
-                   {"loops", loops.size()},
-                   {"before", {{"mean_closest", before.mean_closest}, {"median_closest", before.median_closest}, {"ate_rmse", before.ate_rmse}}}};
-  nlohmann::json methods = nlohmann::json::array();
-  for (const Row& r : rows) {
-    table.add({r.name, fmt(r.ms.median, 3), fmt(r.ms.p95, 3), fmt(r.ms.max, 3), std::to_string(r.ms.count), fmt(r.error.mean_closest),
-               fmt(r.error.median_closest), fmt(r.error.ate_rmse)});
-    methods.push_back({{"method", r.name},
-                       {"median_ms", r.ms.median},
-                       {"p95_ms", r.ms.p95},
-                       {"max_ms", r.ms.max},
-                       {"runs", r.ms.count},
-                       {"mean_closest", r.error.mean_closest},
-                       {"median_closest", r.error.median_closest},
-                       {"ate_rmse", r.error.ate_rmse}});
-  }
-  std::cout << table.str();
-  j["methods"] = methods;
-  if (json) tools::print_json_line(j);
+  print_rows(rows, trajectory_error(odom.poses, gt), poses, loops.size(), json);
   return 0;
 }

@@ -41,6 +41,27 @@ std::vector<Eigen::Vector3f> synthetic_cloud(int n, std::uint32_t seed) {
 
 }  // namespace
 
+/// @brief ms of DescriptorStore::knn (k = 10, every other id allowed) among store_size random descriptors.
+static tools::Summary time_knn(const Eigen::VectorXf& query, int store_size, int runs) {
+  DescriptorStore store;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  for (int i = 0; i < store_size; ++i) {
+    Eigen::VectorXf d(192);
+    for (int j = 0; j < 192; ++j) d(j) = u(rng);
+    d.head(64).normalize();
+    d.tail(128).normalize();
+    store.add(i, d);
+  }
+  std::vector<double> knn_ms;
+  for (int r = 0; r < std::max(runs, 20); ++r) {
+    Stopwatch sw;
+    const auto nn = store.knn(query, 10, [](std::int64_t id) { return id % 2 == 0; });
+    knn_ms.push_back(sw.ms());
+  }
+  return tools::summarize(knn_ms);
+}
+
 int run_bench_m2dp(int argc, char** argv) {
   CLI::App app("loopd-bench m2dp: ms per M2DP descriptor", "loopd-bench m2dp");
   int points = 120000, runs = 20, warmup = 3, store_size = 0, max_points = 0, device = -1;
@@ -73,7 +94,7 @@ int run_bench_m2dp(int argc, char** argv) {
       const CloudFile read = read_cloud_file(f);
       if (!read.ok) {
         std::cerr << "loopd-bench m2dp: " << read.error << "\n";
-        return 1;
+        return tools::kExitUsage;
       }
       clouds.push_back(remove_non_finite(read.cloud).points);
     }
@@ -98,29 +119,9 @@ int run_bench_m2dp(int argc, char** argv) {
   const tools::Summary s = tools::summarize(ms);
   const double mean_points = static_cast<double>(total_points) / static_cast<double>(ms.size());
 
-  double knn_median = 0, knn_p95 = 0;
-  if (store_size > 0) {
-    DescriptorStore store;
-    std::mt19937 rng(7);
-    std::uniform_real_distribution<float> u(0.f, 1.f);
-    for (int i = 0; i < store_size; ++i) {
-      Eigen::VectorXf d(192);
-      for (int j = 0; j < 192; ++j) d(j) = u(rng);
-      d.head(64).normalize();
-      d.tail(128).normalize();
-      store.add(i, d);
-    }
-    std::vector<double> knn_ms;
-    const Eigen::VectorXf q = m2dp.compute(clouds.front()).descriptor;
-    for (int r = 0; r < std::max(runs, 20); ++r) {
-      Stopwatch sw;
-      const auto nn = store.knn(q, 10, [](std::int64_t id) { return id % 2 == 0; });
-      knn_ms.push_back(sw.ms());
-    }
-    const tools::Summary ks = tools::summarize(knn_ms);
-    knn_median = ks.median;
-    knn_p95 = ks.p95;
-  }
+  tools::Summary knn;
+  if (store_size > 0) knn = time_knn(m2dp.compute(clouds.front()).descriptor, store_size, runs);
+  const double knn_median = knn.median, knn_p95 = knn.p95;
 
   const std::string backend_used = to_string(m2dp.backend());
   if (json) {

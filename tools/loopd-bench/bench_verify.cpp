@@ -35,6 +35,28 @@ double cpu_ms() {
 }
 }  // namespace
 
+/// @brief The candidates: per street a same-direction revisit with cars moved, an opposite-direction one, one a lane
+///        over, and near misses (another town, a tunnel 4-8 m on). Towns live as long as the program (static).
+static std::vector<Candidate> make_candidates(int streets) {
+  static const Town town = make_town(1), other = make_other_town(1), corridor = make_corridor();
+  std::vector<Candidate> cands;
+  for (int s = 0; s < streets; ++s) {
+    const double along = 18.0 + 7.0 * s;
+    const Eigen::Isometry3d Tq = street_pose(town, s, 0, 1, along);
+    const double yaw = std::atan2(Tq.linear()(1, 0), Tq.linear()(0, 0));
+    const Eigen::Vector2d fwd(std::cos(yaw), std::sin(yaw)), left(-std::sin(yaw), std::cos(yaw));
+    const Eigen::Vector2d opp = Tq.translation().head<2>() + 4.0 * left + 0.5 * fwd;
+    const std::string tag = " " + std::to_string(s);
+    cands.push_back({"same-dir, cars moved" + tag, true, &town, Tq, 0, &town, street_pose(town, s, 0, 1, along + 0.8, -1.7), 1});
+    cands.push_back({"opposite-dir" + tag, true, &town, Tq, 0, &town, ground_pose(town, opp.x(), opp.y(), yaw + M_PI), 1});
+    cands.push_back({"lane +3 m" + tag, true, &town, Tq, 0, &town, street_pose(town, s, 0, 1, along + 0.5, 1.0), 2});
+    cands.push_back({"other town" + tag, false, &town, Tq, 0, &other, street_pose(other, s, 0, 1, along), 0});
+    cands.push_back({"tunnel +" + std::to_string(4 + 2 * s) + " m", false, &corridor, street_pose(corridor, 0, 0, 0, 10.0 * s, 0.0), 0, &corridor,
+                     street_pose(corridor, 0, 0, 0, 10.0 * s + 4 + 2 * s, 0.0), 0});
+  }
+  return cands;
+}
+
 int run_bench_verify(int argc, char** argv) {
   CLI::App app("loopd-bench verify: whole loop verification, ms per stage");
   int streets = 3, threads = 2;
@@ -51,22 +73,7 @@ int run_bench_verify(int argc, char** argv) {
   cfg.four_pcs.num_threads = threads;
 
   const LidarModel model = lidar_model_hdl64();
-  const Town town = make_town(1), other = make_other_town(1), corridor = make_corridor();
-  std::vector<Candidate> cands;
-  for (int s = 0; s < streets; ++s) {
-    const double along = 18.0 + 7.0 * s;
-    const Eigen::Isometry3d Tq = street_pose(town, s, 0, 1, along);
-    const double yaw = std::atan2(Tq.linear()(1, 0), Tq.linear()(0, 0));
-    const Eigen::Vector2d fwd(std::cos(yaw), std::sin(yaw)), left(-std::sin(yaw), std::cos(yaw));
-    const Eigen::Vector2d opp = Tq.translation().head<2>() + 4.0 * left + 0.5 * fwd;
-    const std::string tag = " " + std::to_string(s);
-    cands.push_back({"same-dir, cars moved" + tag, true, &town, Tq, 0, &town, street_pose(town, s, 0, 1, along + 0.8, -1.7), 1});
-    cands.push_back({"opposite-dir" + tag, true, &town, Tq, 0, &town, ground_pose(town, opp.x(), opp.y(), yaw + M_PI), 1});
-    cands.push_back({"lane +3 m" + tag, true, &town, Tq, 0, &town, street_pose(town, s, 0, 1, along + 0.5, 1.0), 2});
-    cands.push_back({"other town" + tag, false, &town, Tq, 0, &other, street_pose(other, s, 0, 1, along), 0});
-    cands.push_back({"tunnel +" + std::to_string(4 + 2 * s) + " m", false, &corridor, street_pose(corridor, 0, 0, 0, 10.0 * s, 0.0), 0, &corridor,
-                     street_pose(corridor, 0, 0, 0, 10.0 * s + 4 + 2 * s, 0.0), 0});
-  }
+  const std::vector<Candidate> cands = make_candidates(streets);
 
   std::vector<double> ms_fourpcs, ms_gicp, ms_hungarian, ms_total, cpu_total, ms_prepare, bytes;
   int correct = 0, true_accepted = 0, false_accepted = 0, loops = 0, misses = 0;
