@@ -551,36 +551,43 @@ std::string last_line(const std::string& path) {
   return last;
 }
 
-}  // namespace
-
-int run_bench_soak(int argc, char** argv) {
-  CLI::App app("loopd-bench soak: the loopd binary live for N minutes against a looping drive; memory, threads, fds, latency", "loopd-bench soak");
+/// @brief The command line.
+struct SoakOptions {
   double minutes = 30.0, speed = 1.0, poll_s = 10.0, window_min = 5.0, stop_s = 10.0, warmup_min = 1.0, term_timeout_s = 60.0;
   std::string drive, sensor = "vlp16", loopd_bin, sim_bin, out_dir = (fs::temp_directory_path() / "loopd-soak").string();
   int port = 7600 + static_cast<int>(getpid() % 60), threads = -1, sim_scans = 400;
   bool json = false;
-  app.add_option("--minutes", minutes, "how long to run; the bench stops itself after this")->capture_default_str()->check(CLI::Range(0.1, 100000.0));
-  app.add_option("--drive", drive,
+};
+
+void add_options(CLI::App& app, SoakOptions& o) {
+  app.add_option("--minutes", o.minutes, "how long to run; the bench stops itself after this")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 100000.0));
+  app.add_option("--drive", o.drive,
                  "lcm-logger drive with LIDAR_SCAN and ODOMETRY_POSE (GROUND_TRUTH_POSE helps to cut laps); "
                  "default: generated with loopd-sim into --out");
-  app.add_option("--speed", speed, "play speed, 1 = real time")->capture_default_str()->check(CLI::Range(0.01, 100.0));
-  app.add_option("--sensor", sensor, "lidar preset for loopd (and loopd-sim)")->capture_default_str();
-  app.add_option("--loopd", loopd_bin, "loopd binary (default: build/daemon/loopd beside this build, or next to this binary)");
-  app.add_option("--loopd-sim", sim_bin, "loopd-sim binary for the default drive");
-  app.add_option("--sim-scans", sim_scans, "scans of the generated drive (block route: ~250 scans a lap)")->capture_default_str();
-  app.add_option("--threads", threads, "loopd worker threads (-1 = loopd's default)")->capture_default_str();
-  app.add_option("--port", port, "UDP port on 239.255.76.67 (ttl=0, loopback only)")->capture_default_str()->check(CLI::Range(1024, 65535));
-  app.add_option("--poll-s", poll_s, "seconds between samples of the daemon process")->capture_default_str()->check(CLI::Range(1.0, 600.0));
-  app.add_option("--window-min", window_min, "minutes per table row")->capture_default_str()->check(CLI::Range(0.1, 10000.0));
-  app.add_option("--stop-s", stop_s, "seconds the vehicle stands still after each loop (0: none)")
+  app.add_option("--speed", o.speed, "play speed, 1 = real time")->capture_default_str()->check(CLI::Range(0.01, 100.0));
+  app.add_option("--sensor", o.sensor, "lidar preset for loopd (and loopd-sim)")->capture_default_str();
+  app.add_option("--loopd", o.loopd_bin, "loopd binary (default: build/daemon/loopd beside this build, or next to this binary)");
+  app.add_option("--loopd-sim", o.sim_bin, "loopd-sim binary for the default drive");
+  app.add_option("--sim-scans", o.sim_scans, "scans of the generated drive (block route: ~250 scans a lap)")->capture_default_str();
+  app.add_option("--threads", o.threads, "loopd worker threads (-1 = loopd's default)")->capture_default_str();
+  app.add_option("--port", o.port, "UDP port on 239.255.76.67 (ttl=0, loopback only)")->capture_default_str()->check(CLI::Range(1024, 65535));
+  app.add_option("--poll-s", o.poll_s, "seconds between samples of the daemon process")->capture_default_str()->check(CLI::Range(1.0, 600.0));
+  app.add_option("--window-min", o.window_min, "minutes per table row")->capture_default_str()->check(CLI::Range(0.1, 10000.0));
+  app.add_option("--stop-s", o.stop_s, "seconds the vehicle stands still after each loop (0: none)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 3600.0));
-  app.add_option("--warmup-min", warmup_min, "minutes left out of the RSS fit (start-up allocations)")->capture_default_str();
-  app.add_option("--out", out_dir, "folder for the generated drive, loopd.log, soak.dat and soak_rss.png")->capture_default_str();
-  app.add_flag("--json", json, "one JSON object as the last stdout line");
-  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
+  app.add_option("--warmup-min", o.warmup_min, "minutes left out of the RSS fit (start-up allocations)")->capture_default_str();
+  app.add_option("--out", o.out_dir, "folder for the generated drive, loopd.log, soak.dat and soak_rss.png")->capture_default_str();
+  app.add_flag("--json", o.json, "one JSON object as the last stdout line");
+}
+
+/// @brief Checks the LCM group stays on this machine, creates the output folder, finds loopd and makes the drive when
+///        none is given. Returns the exit status when it cannot.
+std::optional<int> prepare_soak(SoakOptions& o, std::string* url) {
   const std::string group = "239.255.76.67";
-  const std::string url = "udpm://" + group + ":" + std::to_string(port) + "?ttl=0&recv_buf_size=8388608";
+  *url = "udpm://" + group + ":" + std::to_string(o.port) + "?ttl=0&recv_buf_size=8388608";
   std::string route;
   if (!multicast_on_loopback(group, &route)) {
     std::cerr << "loopd-bench soak: refusing to run: the LCM group " << group << " is not routed through loopback, so the soak's\n"
@@ -589,40 +596,90 @@ int run_bench_soak(int argc, char** argv) {
     return 2;
   }
   std::error_code ec;
-  fs::create_directories(out_dir, ec);
+  fs::create_directories(o.out_dir, ec);
   if (ec) {
-    std::cerr << "loopd-bench soak: cannot create " << out_dir << ": " << ec.message() << "\n";
+    std::cerr << "loopd-bench soak: cannot create " << o.out_dir << ": " << ec.message() << "\n";
     return 1;
   }
-  if (loopd_bin.empty()) loopd_bin = find_program("daemon/loopd", "loopd");
-  if (loopd_bin.empty() || access(loopd_bin.c_str(), X_OK) != 0) {
+  if (o.loopd_bin.empty()) o.loopd_bin = find_program("daemon/loopd", "loopd");
+  if (o.loopd_bin.empty() || access(o.loopd_bin.c_str(), X_OK) != 0) {
     std::cerr << "loopd-bench soak: no loopd binary (looked for build/daemon/loopd beside this build and loopd next to this binary); "
                  "give --loopd PATH\n";
     return 1;
   }
-  if (drive.empty()) {
-    drive = out_dir + "/drive_" + sensor + "_" + std::to_string(sim_scans) + ".lcmlog";
-    if (!fs::exists(drive, ec)) {
-      if (sim_bin.empty()) sim_bin = find_program("tools/loopd-sim/loopd-sim", "loopd-sim");
-      if (sim_bin.empty()) {
+  if (o.drive.empty()) {
+    o.drive = o.out_dir + "/drive_" + o.sensor + "_" + std::to_string(o.sim_scans) + ".lcmlog";
+    if (!fs::exists(o.drive, ec)) {
+      if (o.sim_bin.empty()) o.sim_bin = find_program("tools/loopd-sim/loopd-sim", "loopd-sim");
+      if (o.sim_bin.empty()) {
         std::cerr << "loopd-bench soak: no --drive and no loopd-sim found (give --loopd-sim PATH)\n";
         return 1;
       }
-      std::cerr << "loopd-bench soak: generating " << drive << " with loopd-sim\n";
-      const std::string cmd = "'" + sim_bin + "' --out '" + drive + ".part' --sensor " + sensor + " --scans " + std::to_string(sim_scans) +
+      std::cerr << "loopd-bench soak: generating " << o.drive << " with loopd-sim\n";
+      const std::string cmd = "'" + o.sim_bin + "' --out '" + o.drive + ".part' --sensor " + o.sensor + " --scans " + std::to_string(o.sim_scans) +
                               " --seed 11 --route block --quiet >/dev/null";
-      if (std::system(cmd.c_str()) != 0 || !fs::exists(drive + ".part", ec)) {
+      if (std::system(cmd.c_str()) != 0 || !fs::exists(o.drive + ".part", ec)) {
         std::cerr << "loopd-bench soak: loopd-sim failed: " << cmd << "\n";
         return 1;
       }
-      fs::rename(drive + ".part", drive, ec);
+      fs::rename(o.drive + ".part", o.drive, ec);
     }
   }
-  const LoopPlan plan = plan_loop(drive);
-  if (!plan.error.empty()) {
-    std::cerr << "loopd-bench soak: " << plan.error << "\n";
-    return 1;
+  return std::nullopt;
+}
+
+/// @brief How the daemon ended: SIGTERM, then a wait (SIGKILL after term_timeout_s, reported as such).
+struct DaemonEnd {
+  int rc = -1;
+  bool killed = false;
+  double term_s = 0;
+};
+
+DaemonEnd stop_daemon(pid_t pid, double term_timeout_s) {
+  DaemonEnd end;
+  const double t_term = mono_s();
+  kill(pid, SIGTERM);
+  int status = 0;
+  for (;;) {
+    if (waitpid(pid, &status, WNOHANG) == pid) {
+      end.rc = exit_code(status);
+      break;
+    }
+    if (mono_s() - t_term > term_timeout_s) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      end.rc = exit_code(status);
+      end.killed = true;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
+  end.term_s = mono_s() - t_term;
+  return end;
+}
+
+/// @brief One sample of the daemon process and of its newest status, printed as a progress line.
+Sample sample_daemon(pid_t pid, Listener& listener, const PublishStats& pub, double t) {
+  Sample s;
+  s.t_s = t;
+  s.proc = read_proc(pid);
+  status_t st;
+  if (listener.status(&st)) {
+    s.keyframes = st.keyframes;
+    s.bytes_per_keyframe = st.bytes_per_keyframe;
+    s.shed = st.shed;
+    s.loops_accepted = st.loops_accepted;
+    s.scans_lost = st.scans_lost_estimate;
+    for (int i = 0; i < st.num_channels; ++i) s.dropped += st.channels[static_cast<std::size_t>(i)].dropped;
+  }
+  s.scans_published = pub.scans.load();
+  std::cerr << "loopd-bench soak: " << fmt(t / 60.0, 1) << " min: RSS " << fmt(static_cast<double>(s.proc.rss_bytes) / 1e6, 0) << " MB, keyframes "
+            << s.keyframes << ", threads " << s.proc.threads << ", fds " << s.proc.fds << ", scans published " << s.scans_published
+            << ", loops played " << pub.loops.load() << "\n";
+  return s;
+}
+
+void describe_plan(const LoopPlan& plan, double stop_s, const std::string& url) {
   const double loop_s = static_cast<double>(plan.cut_utime - plan.first_utime) * 1e-6;
   std::cerr << "loopd-bench soak: one loop = " << plan.scans_per_loop << " scans, " << fmt(loop_s, 1) << " s of drive, returns within "
             << fmt(plan.return_gap_m, 2) << " m of its start (" << (plan.from_ground_truth ? "ground truth" : "odometry") << "), then "
@@ -630,21 +687,169 @@ int run_bench_soak(int argc, char** argv) {
   if (plan.return_gap_m > 3.0)
     std::cerr << "loopd-bench soak: warning: the drive does not come back to its start; each loop jumps " << fmt(plan.return_gap_m, 1)
               << " m in space (odometry stays continuous)\n";
+}
 
-  // The daemon, then the listener, then the publisher.
-  const std::string daemon_log = out_dir + "/loopd.log";
-  std::vector<std::string> args = {loopd_bin, "--sensor", sensor, "--quiet", "--lcm-url", url};
-  if (threads >= 0) args.insert(args.end(), {"--threads", std::to_string(threads)});
+void print_windows(const std::vector<Window>& windows) {
+  tools::Table t({"minutes", "RSS [MB]", "keyframes", "threads", "fds", "p99 latency [ms]", "verified", "events"});
+  for (const auto& w : windows)
+    t.add({fmt(w.from_min, 1) + "-" + fmt(w.to_min, 1), fmt(w.rss_mb, 0), std::to_string(w.keyframes), std::to_string(w.threads),
+           std::to_string(w.fds), w.latency_n ? fmt(w.p99_ms, 0) : "-", std::to_string(w.latency_n), std::to_string(w.events)});
+  std::cout << t.str();
+}
+
+/// @brief Starts loopd on the soak's URL, its output into daemon_log, and catches SIGINT / SIGTERM for the bench
+///        itself (it stops the run, not the process). Returns its pid, <= 0 when it could not start.
+pid_t start_loopd(const SoakOptions& o, const std::string& url, const std::string& daemon_log) {
+  std::vector<std::string> args = {o.loopd_bin, "--sensor", o.sensor, "--quiet", "--lcm-url", url};
+  if (o.threads >= 0) args.insert(args.end(), {"--threads", std::to_string(o.threads)});
   const pid_t pid = spawn_daemon(args, daemon_log);
   if (pid <= 0) {
-    std::cerr << "loopd-bench soak: cannot start " << loopd_bin << "\n";
-    return 1;
+    std::cerr << "loopd-bench soak: cannot start " << o.loopd_bin << "\n";
+    return pid;
   }
   struct sigaction sa {};
   sa.sa_handler = on_interrupt;
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  return pid;
+}
+
+/// @brief The first sample at or after t [s] (the first one when none is).
+const Sample& first_after(const std::vector<Sample>& samples, double t) {
+  for (const auto& s : samples)
+    if (s.t_s >= t) return s;
+  return samples.front();
+}
+
+/// @brief Everything the soak measured, for its JSON line.
+struct SoakFigures {
+  double run_s = 0;
+  std::vector<Window> windows;
+  RssFit fit;
+  tools::Summary lat;
+  double p99_ms = 0;
+  std::size_t events = 0;
+  Sample first, last;
+  std::string png, url;
+  int daemon_rc = -1;
+  bool daemon_died = false, killed = false;
+  Sample after_warmup;
+  std::int64_t accepted_heard = 0;
+  double term_s = 0;
+  std::string plot_error, daemon_log;
+};
+
+void print_soak_summary(const SoakOptions& o, const SoakFigures& f, const PublishStats& pub) {
+  tools::Table s({"figure", "value"});
+  s.add({"run [min] / speed", fmt(f.run_s / 60.0, 1) + " / " + fmt(o.speed, 2) + "x"});
+  s.add({"loops played / scans published", std::to_string(pub.loops.load()) + " / " + std::to_string(pub.scans.load())});
+  s.add({"keyframes / loops accepted (status)", std::to_string(f.last.keyframes) + " / " + std::to_string(f.last.loops_accepted)});
+  s.add({"RSS start / after warm-up / end [MB]", fmt(static_cast<double>(f.first.proc.rss_bytes) / 1e6, 0) + " / " +
+                                                     fmt(static_cast<double>(f.after_warmup.proc.rss_bytes) / 1e6, 0) + " / " +
+                                                     fmt(static_cast<double>(f.last.proc.rss_bytes) / 1e6, 0)});
+  if (f.fit.ok) {
+    s.add({"RSS fit: MB/min (keyframes taken out)", fmt(f.fit.mb_per_min, 3) + " +- " + fmt(f.fit.mb_per_min_se, 3)});
+    s.add({"RSS fit: KB per keyframe", fmt(f.fit.kb_per_keyframe, 1) + " +- " + fmt(f.fit.kb_per_keyframe_se, 1)});
+    s.add({"RSS fit: rms [MB] / samples / corr(time, keyframes)",
+           fmt(f.fit.rms_mb, 1) + " / " + std::to_string(f.fit.samples) + " / " + fmt(f.fit.t_k_correlation, 4)});
+    s.add({"RSS - keyframes x status bytes/keyframe: MB/min", fmt(f.fit.residual_mb_per_min, 3)});
+    s.add({"RSS against time alone: MB/min", fmt(f.fit.plain_mb_per_min, 3)});
+  }
+  s.add({"threads start / after warm-up / end",
+         std::to_string(f.first.proc.threads) + " / " + std::to_string(f.after_warmup.proc.threads) + " / " + std::to_string(f.last.proc.threads)});
+  s.add({"fds start / after warm-up / end",
+         std::to_string(f.first.proc.fds) + " / " + std::to_string(f.after_warmup.proc.fds) + " / " + std::to_string(f.last.proc.fds)});
+  s.add({"latency [ms] median / p95 / p99 / max (n)", fmt(f.lat.median, 0) + " / " + fmt(f.lat.p95, 0) + " / " + fmt(f.p99_ms, 0) + " / " +
+                                                          fmt(f.lat.max, 0) + " (" + std::to_string(f.lat.count) + ")"});
+  s.add({"events / accepted (heard)", std::to_string(f.events) + " / " + std::to_string(f.accepted_heard)});
+  s.add({"shed / dropped / scans lost (status)",
+         std::to_string(f.last.shed) + " / " + std::to_string(f.last.dropped) + " / " + std::to_string(f.last.scans_lost)});
+  s.add({"publisher > 1 s behind schedule", std::to_string(pub.behind.load())});
+  s.add({"loopd exit code after SIGTERM",
+         f.daemon_died
+             ? "died during the run: " + std::to_string(f.daemon_rc)
+             : std::to_string(f.daemon_rc) + (f.killed ? " (SIGKILL after " + fmt(o.term_timeout_s, 0) + " s)" : " (" + fmt(f.term_s, 1) + " s)")});
+  s.add({"plot", f.png.empty() ? f.plot_error : f.png});
+  std::cout << s.str();
+  std::cout << "loopd's last line: " << last_line(f.daemon_log) << "\n";
+  if (f.fit.ok && f.fit.mb_per_min_se > 0.1)  // 0.1 MB/min = 144 MB a day
+    std::cout << "note: MB/min is only known to +- " << fmt(f.fit.mb_per_min_se, 2) << " (keyframes grew almost in step with time, corr "
+              << fmt(f.fit.t_k_correlation, 4) << "); a longer run or a longer --stop-s separates them better\n";
+}
+
+void print_soak_json(const SoakOptions& o, const SoakFigures& f, const PublishStats& pub) {
+  const auto& windows = f.windows;
+  const auto& fit = f.fit;
+  const auto& lat = f.lat;
+  const Sample &first = f.first, &last = f.last;
+  nlohmann::json jw = nlohmann::json::array();
+  for (const auto& w : windows)
+    jw.push_back({{"from_min", w.from_min},
+                  {"to_min", w.to_min},
+                  {"rss_mb", w.rss_mb},
+                  {"keyframes", w.keyframes},
+                  {"threads", w.threads},
+                  {"fds", w.fds},
+                  {"p99_latency_ms", w.p99_ms},
+                  {"verified", w.latency_n},
+                  {"events", w.events}});
+  nlohmann::json j{{"minutes", f.run_s / 60.0},
+                   {"speed", o.speed},
+                   {"drive", o.drive},
+                   {"url", f.url},
+                   {"stop_s", o.stop_s},
+                   {"loops_played", pub.loops.load()},
+                   {"scans_published", pub.scans.load()},
+                   {"keyframes", last.keyframes},
+                   {"loops_accepted", last.loops_accepted},
+                   {"rss_start_mb", static_cast<double>(first.proc.rss_bytes) / 1e6},
+                   {"rss_end_mb", static_cast<double>(last.proc.rss_bytes) / 1e6},
+                   {"rss_mb_per_min", fit.mb_per_min},
+                   {"rss_mb_per_min_se", fit.mb_per_min_se},
+                   {"rss_kb_per_keyframe", fit.kb_per_keyframe},
+                   {"rss_kb_per_keyframe_se", fit.kb_per_keyframe_se},
+                   {"rss_fit_time_keyframe_correlation", fit.t_k_correlation},
+                   {"rss_residual_mb_per_min", fit.residual_mb_per_min},
+                   {"rss_plain_mb_per_min", fit.plain_mb_per_min},
+                   {"threads_start", first.proc.threads},
+                   {"threads_end", last.proc.threads},
+                   {"fds_start", first.proc.fds},
+                   {"fds_end", last.proc.fds},
+                   {"latency_median_ms", lat.median},
+                   {"latency_p99_ms", f.p99_ms},
+                   {"latency_max_ms", lat.max},
+                   {"events", f.events},
+                   {"shed", last.shed},
+                   {"scans_lost", last.scans_lost},
+                   {"loopd_exit_code", f.daemon_rc},
+                   {"loopd_died", f.daemon_died},
+                   {"loopd_killed", f.killed},
+                   {"plot", f.png},
+                   {"windows", jw}};
+  tools::print_json_line(j);
+}
+
+}  // namespace
+
+int run_bench_soak(int argc, char** argv) {
+  CLI::App app("loopd-bench soak: the loopd binary live for N minutes against a looping drive; memory, threads, fds, latency", "loopd-bench soak");
+  SoakOptions o;
+  add_options(app, o);
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
+  std::string url;
+  if (auto rc = prepare_soak(o, &url)) return *rc;
+  const LoopPlan plan = plan_loop(o.drive);
+  if (!plan.error.empty()) {
+    std::cerr << "loopd-bench soak: " << plan.error << "\n";
+    return 1;
+  }
+  describe_plan(plan, o.stop_s, url);
+
+  // The daemon, then the listener, then the publisher.
+  const std::string daemon_log = o.out_dir + "/loopd.log";
+  const pid_t pid = start_loopd(o, url, daemon_log);
+  if (pid <= 0) return 1;
 
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // let loopd subscribe
   const double t0 = mono_s();
@@ -663,33 +868,15 @@ int run_bench_soak(int argc, char** argv) {
     while (!stop.load()) rx.handleTimeout(100);
   });
   PublishStats pub;
-  std::thread pub_thread(publish_loops, url, drive, std::cref(plan), speed, stop_s, &listener, &stop, &pub);
+  std::thread pub_thread(publish_loops, url, o.drive, std::cref(plan), o.speed, o.stop_s, &listener, &stop, &pub);
 
   std::vector<Sample> samples;
   int daemon_rc = -1;
   bool daemon_died = false;
-  const double total_s = minutes * 60.0;
-  const auto take_sample = [&](double t) {
-    Sample s;
-    s.t_s = t;
-    s.proc = read_proc(pid);
-    status_t st;
-    if (listener.status(&st)) {
-      s.keyframes = st.keyframes;
-      s.bytes_per_keyframe = st.bytes_per_keyframe;
-      s.shed = st.shed;
-      s.loops_accepted = st.loops_accepted;
-      s.scans_lost = st.scans_lost_estimate;
-      for (int i = 0; i < st.num_channels; ++i) s.dropped += st.channels[static_cast<std::size_t>(i)].dropped;
-    }
-    s.scans_published = pub.scans.load();
-    samples.push_back(s);
-    std::cerr << "loopd-bench soak: " << fmt(t / 60.0, 1) << " min: RSS " << fmt(static_cast<double>(s.proc.rss_bytes) / 1e6, 0) << " MB, keyframes "
-              << s.keyframes << ", threads " << s.proc.threads << ", fds " << s.proc.fds << ", scans published " << s.scans_published
-              << ", loops played " << pub.loops.load() << "\n";
-  };
+  const double total_s = o.minutes * 60.0;
+  const auto take_sample = [&](double t) { samples.push_back(sample_daemon(pid, listener, pub, t)); };
   take_sample(0.0);
-  for (double next = poll_s; !g_interrupted.load();) {
+  for (double next = o.poll_s; !g_interrupted.load();) {
     int status = 0;
     if (waitpid(pid, &status, WNOHANG) == pid) {
       daemon_died = true;
@@ -700,7 +887,7 @@ int run_bench_soak(int argc, char** argv) {
     if (t >= std::min(next, total_s)) {
       take_sample(t);
       if (t >= total_s) break;
-      next += poll_s;
+      next += o.poll_s;
     }
     if (pub.failed.load()) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
@@ -710,28 +897,13 @@ int run_bench_soak(int argc, char** argv) {
   pub_thread.join();
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // the last decisions and a status
 
-  // SIGTERM, then wait (SIGKILL after term_timeout_s, reported as such).
   bool killed = false;
   double term_s = 0;
   if (!daemon_died) {
-    const double t_term = mono_s();
-    kill(pid, SIGTERM);
-    int status = 0;
-    for (;;) {
-      if (waitpid(pid, &status, WNOHANG) == pid) {
-        daemon_rc = exit_code(status);
-        break;
-      }
-      if (mono_s() - t_term > term_timeout_s) {
-        kill(pid, SIGKILL);
-        waitpid(pid, &status, 0);
-        daemon_rc = exit_code(status);
-        killed = true;
-        break;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
-    term_s = mono_s() - t_term;
+    const DaemonEnd end = stop_daemon(pid, o.term_timeout_s);
+    daemon_rc = end.rc;
+    killed = end.killed;
+    term_s = end.term_s;
   }
   rx_thread.join();
   if (!pub.error.empty()) std::cerr << "loopd-bench soak: publisher: " << pub.error << "\n";
@@ -739,109 +911,22 @@ int run_bench_soak(int argc, char** argv) {
   // Report.
   const auto latency = listener.latency();
   const auto events = listener.event_times();
-  const auto windows = make_windows(samples, events, latency, window_min * 60.0, run_s);
-  tools::Table t({"minutes", "RSS [MB]", "keyframes", "threads", "fds", "p99 latency [ms]", "verified", "events"});
-  for (const auto& w : windows)
-    t.add({fmt(w.from_min, 1) + "-" + fmt(w.to_min, 1), fmt(w.rss_mb, 0), std::to_string(w.keyframes), std::to_string(w.threads),
-           std::to_string(w.fds), w.latency_n ? fmt(w.p99_ms, 0) : "-", std::to_string(w.latency_n), std::to_string(w.events)});
-  std::cout << t.str();
+  const auto windows = make_windows(samples, events, latency, o.window_min * 60.0, run_s);
+  print_windows(windows);
 
-  const double warmup_s = std::min(warmup_min * 60.0, 0.2 * run_s);
+  const double warmup_s = std::min(o.warmup_min * 60.0, 0.2 * run_s);
   const RssFit fit = fit_rss(samples, warmup_s);
   std::vector<double> all_ms;
   for (const auto& l : latency) all_ms.push_back(l.ms);
   const tools::Summary lat = tools::summarize(all_ms);
   const Sample first = samples.front(), last = samples.back();
-  const Sample* after_warmup = &samples.front();
-  for (const auto& s : samples)
-    if (s.t_s >= warmup_s) {
-      after_warmup = &s;
-      break;
-    }
+  const Sample* after_warmup = &first_after(samples, warmup_s);
   std::string plot_error;
-  const std::string png = write_plot(out_dir, samples, &plot_error);
+  const std::string png = write_plot(o.out_dir, samples, &plot_error);
 
-  tools::Table s({"figure", "value"});
-  s.add({"run [min] / speed", fmt(run_s / 60.0, 1) + " / " + fmt(speed, 2) + "x"});
-  s.add({"loops played / scans published", std::to_string(pub.loops.load()) + " / " + std::to_string(pub.scans.load())});
-  s.add({"keyframes / loops accepted (status)", std::to_string(last.keyframes) + " / " + std::to_string(last.loops_accepted)});
-  s.add({"RSS start / after warm-up / end [MB]", fmt(static_cast<double>(first.proc.rss_bytes) / 1e6, 0) + " / " +
-                                                     fmt(static_cast<double>(after_warmup->proc.rss_bytes) / 1e6, 0) + " / " +
-                                                     fmt(static_cast<double>(last.proc.rss_bytes) / 1e6, 0)});
-  if (fit.ok) {
-    s.add({"RSS fit: MB/min (keyframes taken out)", fmt(fit.mb_per_min, 3) + " +- " + fmt(fit.mb_per_min_se, 3)});
-    s.add({"RSS fit: KB per keyframe", fmt(fit.kb_per_keyframe, 1) + " +- " + fmt(fit.kb_per_keyframe_se, 1)});
-    s.add({"RSS fit: rms [MB] / samples / corr(time, keyframes)",
-           fmt(fit.rms_mb, 1) + " / " + std::to_string(fit.samples) + " / " + fmt(fit.t_k_correlation, 4)});
-    s.add({"RSS - keyframes x status bytes/keyframe: MB/min", fmt(fit.residual_mb_per_min, 3)});
-    s.add({"RSS against time alone: MB/min", fmt(fit.plain_mb_per_min, 3)});
-  }
-  s.add({"threads start / after warm-up / end",
-         std::to_string(first.proc.threads) + " / " + std::to_string(after_warmup->proc.threads) + " / " + std::to_string(last.proc.threads)});
-  s.add({"fds start / after warm-up / end",
-         std::to_string(first.proc.fds) + " / " + std::to_string(after_warmup->proc.fds) + " / " + std::to_string(last.proc.fds)});
-  s.add({"latency [ms] median / p95 / p99 / max (n)", fmt(lat.median, 0) + " / " + fmt(lat.p95, 0) + " / " + fmt(p99(all_ms), 0) + " / " +
-                                                          fmt(lat.max, 0) + " (" + std::to_string(lat.count) + ")"});
-  s.add({"events / accepted (heard)", std::to_string(events.size()) + " / " + std::to_string(listener.accepted())});
-  s.add({"shed / dropped / scans lost (status)",
-         std::to_string(last.shed) + " / " + std::to_string(last.dropped) + " / " + std::to_string(last.scans_lost)});
-  s.add({"publisher > 1 s behind schedule", std::to_string(pub.behind.load())});
-  s.add({"loopd exit code after SIGTERM",
-         daemon_died ? "died during the run: " + std::to_string(daemon_rc)
-                     : std::to_string(daemon_rc) + (killed ? " (SIGKILL after " + fmt(term_timeout_s, 0) + " s)" : " (" + fmt(term_s, 1) + " s)")});
-  s.add({"plot", png.empty() ? plot_error : png});
-  std::cout << s.str();
-  std::cout << "loopd's last line: " << last_line(daemon_log) << "\n";
-  if (fit.ok && fit.mb_per_min_se > 0.1)  // 0.1 MB/min = 144 MB a day
-    std::cout << "note: MB/min is only known to +- " << fmt(fit.mb_per_min_se, 2) << " (keyframes grew almost in step with time, corr "
-              << fmt(fit.t_k_correlation, 4) << "); a longer run or a longer --stop-s separates them better\n";
-
-  if (json) {
-    nlohmann::json jw = nlohmann::json::array();
-    for (const auto& w : windows)
-      jw.push_back({{"from_min", w.from_min},
-                    {"to_min", w.to_min},
-                    {"rss_mb", w.rss_mb},
-                    {"keyframes", w.keyframes},
-                    {"threads", w.threads},
-                    {"fds", w.fds},
-                    {"p99_latency_ms", w.p99_ms},
-                    {"verified", w.latency_n},
-                    {"events", w.events}});
-    nlohmann::json j{{"minutes", run_s / 60.0},
-                     {"speed", speed},
-                     {"drive", drive},
-                     {"url", url},
-                     {"stop_s", stop_s},
-                     {"loops_played", pub.loops.load()},
-                     {"scans_published", pub.scans.load()},
-                     {"keyframes", last.keyframes},
-                     {"loops_accepted", last.loops_accepted},
-                     {"rss_start_mb", static_cast<double>(first.proc.rss_bytes) / 1e6},
-                     {"rss_end_mb", static_cast<double>(last.proc.rss_bytes) / 1e6},
-                     {"rss_mb_per_min", fit.mb_per_min},
-                     {"rss_mb_per_min_se", fit.mb_per_min_se},
-                     {"rss_kb_per_keyframe", fit.kb_per_keyframe},
-                     {"rss_kb_per_keyframe_se", fit.kb_per_keyframe_se},
-                     {"rss_fit_time_keyframe_correlation", fit.t_k_correlation},
-                     {"rss_residual_mb_per_min", fit.residual_mb_per_min},
-                     {"rss_plain_mb_per_min", fit.plain_mb_per_min},
-                     {"threads_start", first.proc.threads},
-                     {"threads_end", last.proc.threads},
-                     {"fds_start", first.proc.fds},
-                     {"fds_end", last.proc.fds},
-                     {"latency_median_ms", lat.median},
-                     {"latency_p99_ms", p99(all_ms)},
-                     {"latency_max_ms", lat.max},
-                     {"events", events.size()},
-                     {"shed", last.shed},
-                     {"scans_lost", last.scans_lost},
-                     {"loopd_exit_code", daemon_rc},
-                     {"loopd_died", daemon_died},
-                     {"loopd_killed", killed},
-                     {"plot", png},
-                     {"windows", jw}};
-    tools::print_json_line(j);
-  }
+  const SoakFigures f{run_s, windows,   fit,         lat,    p99(all_ms),   events.size(),       first,  last,       png,
+                      url,   daemon_rc, daemon_died, killed, *after_warmup, listener.accepted(), term_s, plot_error, daemon_log};
+  print_soak_summary(o, f, pub);
+  if (o.json) print_soak_json(o, f, pub);
   return daemon_died || killed || daemon_rc != 0 || pub.failed.load() ? 1 : 0;
 }
