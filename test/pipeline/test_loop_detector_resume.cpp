@@ -1,0 +1,146 @@
+// Resume at the library level (issue 31): a LoopDetector that restores what another one stored (its keyframes with
+// their measured steps, its decisions, its newest correction) and then goes on decides exactly as the one that never
+// stopped, to the bit: the same decisions, the same loop transforms and the same corrected trajectory.
+#include <catch2/catch.hpp>
+#include <algorithm>
+#include <map>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "loopd/pipeline/keyframe_selector.hpp"
+#include "loopd/pipeline/loop_detector.hpp"
+#include "loopd/sim/drive.hpp"
+
+using namespace loopd;
+
+namespace {
+
+/// One keyframe as the first detector saw it, and what it made of it.
+struct Step {
+  KeyframeInput input;
+  std::shared_ptr<const KeyframeFeatures> features;
+  KeyframeRecord stored;                ///< as on_placed handed it to a store
+  std::vector<LoopDecision> decisions;  ///< in the order they were made
+  std::optional<CorrectionOutput> correction;
+};
+
+/// A block lap and its revisit (simulated VLP-16, instantaneous scans: every keyframe step is measured by the scans).
+std::vector<Step> keyframes_of_drive(const LoopDetectorConfig& config) {
+  DriveConfig dc;
+  dc.sensor = "vlp16";
+  dc.route = "block";
+  dc.num_scans = 340;
+  dc.seed = 23;
+  dc.effects.motion_skew = false;
+  const Drive drive = make_drive(dc);
+  REQUIRE(drive.error.empty());
+  LoopDetector features(config);
+  KeyframeSelector selector(config.keyframe);
+  std::vector<Step> steps;
+  for (const DriveScan& s : drive.scans) {
+    if (!selector.accept(s.odometry.T_world_sensor, s.utime)) continue;
+    Step k;
+    k.input.key = KeyframeKey{0, static_cast<std::int64_t>(steps.size())};
+    k.input.utime = s.utime;
+    k.input.T_odom_sensor = s.odometry.T_world_sensor;
+    k.input.residual = s.odometry.residual;
+    k.input.motion_compensated = true;
+    k.features = std::make_shared<const KeyframeFeatures>(features.compute_features(drive.simulate(s.index, 2)));
+    REQUIRE(k.features->ok);
+    steps.push_back(std::move(k));
+  }
+  return steps;
+}
+
+/// Adds keyframe k to `detector`, recording what it stored and decided.
+void add(LoopDetector& detector, Step& k) {
+  k.decisions.clear();
+  const DetectorOutput out = detector.add_keyframe(
+      k.input, k.features, [&](const LoopDecision& d) { k.decisions.push_back(d); },
+      [&](const KeyframeRecord& record, const Eigen::Isometry3d&) { k.stored = record; });
+  k.correction = out.correction;
+}
+
+/// Restores keyframes [0, cut) into `detector` as the engine does from a map: each keyframe, then its decisions; the
+/// newest correction among them resumes, accepted loops after it are corrected again.
+void restore(LoopDetector& detector, const std::vector<Step>& steps, std::size_t cut) {
+  std::optional<std::int64_t> stored_loop;
+  const CorrectionOutput* stored = nullptr;
+  for (std::size_t i = 0; i < cut; ++i)
+    if (steps[i].correction) stored = &*steps[i].correction;
+  if (stored) stored_loop = stored->loop_event_id;
+  for (std::size_t i = 0; i < cut; ++i) {
+    detector.restore_keyframe(steps[i].stored);
+    for (const LoopDecision& d : steps[i].decisions) {
+      if (d.status == LoopStatus::kAccepted && (!stored_loop || d.event_id > *stored_loop)) {
+        detector.reapply_loop(d, d.information);
+        continue;
+      }
+      detector.restore_decision(d, d.information);
+      if (stored_loop && d.event_id == *stored_loop) {
+        const auto why = detector.resume_correction(stored->revision, stored->keys, stored->T_map_sensor, stored->resume_state);
+        INFO(why.value_or(""));
+        REQUIRE_FALSE(why);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+TEST_CASE("loop detector: restored from what it stored, it goes on deciding exactly as the run that never stopped") {
+  LoopDetectorConfig config;
+  config.sensor = "vlp16";
+  std::vector<Step> steps = keyframes_of_drive(config);
+  REQUIRE(steps.size() > 100);
+
+  LoopDetector uninterrupted(config);
+  for (Step& k : steps) add(uninterrupted, k);
+  std::size_t accepted = 0, with_step = 0;
+  for (const Step& k : steps) {
+    for (const LoopDecision& d : k.decisions) accepted += d.status == LoopStatus::kAccepted ? 1 : 0;
+    with_step += k.stored.step ? 1 : 0;
+  }
+  REQUIRE(accepted >= 10);
+  CHECK(with_step >= steps.size() / 2);  // the steps the resumed detector must take from the records, not measure again
+
+  // Stops after two thirds of the drive: inside the revisit, with loops before and after the cut.
+  const std::size_t cut = 2 * steps.size() / 3;
+  LoopDetector resumed(config);
+  restore(resumed, steps, cut);
+  CHECK(resumed.num_keyframes() == cut);
+  CHECK(resumed.steps_measured() == static_cast<std::int64_t>(std::count_if(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(cut),
+                                                                            [](const Step& k) { return k.stored.step.has_value(); })));
+
+  std::size_t compared = 0, accepted_after = 0;
+  std::optional<CorrectionOutput> last_resumed, last_uninterrupted;
+  for (std::size_t i = cut; i < steps.size(); ++i) {
+    Step again = steps[i];
+    add(resumed, again);
+    INFO("keyframe " << i);
+    REQUIRE(again.decisions.size() == steps[i].decisions.size());
+    for (std::size_t j = 0; j < again.decisions.size(); ++j) {
+      const LoopDecision &a = again.decisions[j], &b = steps[i].decisions[j];
+      CHECK(a.event_id == b.event_id);
+      CHECK(a.match == b.match);
+      CHECK(a.status == b.status);
+      CHECK(a.stage == b.stage);
+      CHECK(a.T_match_query.matrix() == b.T_match_query.matrix());
+      accepted_after += a.status == LoopStatus::kAccepted ? 1 : 0;
+      ++compared;
+    }
+    CHECK(again.stored.step.has_value() == steps[i].stored.step.has_value());
+    if (again.correction) last_resumed = again.correction;
+    if (steps[i].correction) last_uninterrupted = steps[i].correction;
+  }
+  CHECK(compared > 0);
+  CHECK(accepted_after > 0);
+  REQUIRE(last_resumed);
+  REQUIRE(last_uninterrupted);
+  CHECK(last_resumed->revision == last_uninterrupted->revision);
+  REQUIRE(last_resumed->T_map_sensor.size() == last_uninterrupted->T_map_sensor.size());
+  for (std::size_t i = 0; i < last_resumed->T_map_sensor.size(); ++i)
+    CHECK(last_resumed->T_map_sensor[i].matrix() == last_uninterrupted->T_map_sensor[i].matrix());
+  CHECK(resumed.T_map_odom().matrix() == uninterrupted.T_map_odom().matrix());
+}
