@@ -94,3 +94,57 @@ TEST_CASE("loop detector: another day's drive in its own frame is tied to the fi
   CHECK(detector.steps_measured() <= static_cast<std::int64_t>(detector.num_keyframes()) - 2);
   CHECK(detector.steps_measured() >= static_cast<std::int64_t>(0.8 * static_cast<double>(detector.num_keyframes())));
 }
+
+TEST_CASE("loop detector: another vehicle's keyframes are candidates, its loops accepted once two agree, and link nothing here") {
+  LoopDetectorConfig config;
+  config.sensor = "vlp16";
+  // Vehicle 1 maps the block; what it stores is what vehicle 2 reads from the shared map.
+  LoopDetector first(config);
+  std::vector<KeyframeRecord> stored;
+  std::map<KeyframeKey, Eigen::Isometry3d> truth;
+  const auto drive_into = [&](LoopDetector& detector, const Drive& drive, SessionId session, std::vector<LoopDecision>* decisions) {
+    KeyframeSelector selector(config.keyframe);
+    std::int64_t index = 0;
+    for (const DriveScan& s : drive.scans) {
+      if (!selector.accept(s.odometry.T_world_sensor, s.utime)) continue;
+      KeyframeInput in;
+      in.key = KeyframeKey{session, index++};
+      in.utime = s.utime;
+      in.T_odom_sensor = s.odometry.T_world_sensor;
+      in.residual = s.odometry.residual;
+      in.motion_compensated = true;
+      truth[in.key] = s.T_world_sensor;
+      const auto features = std::make_shared<const KeyframeFeatures>(detector.compute_features(drive.simulate(s.index, 2)));
+      detector.add_keyframe(
+          in, features,
+          [&](const LoopDecision& d) {
+            if (decisions) decisions->push_back(d);
+          },
+          [&](const KeyframeRecord& r, const Eigen::Isometry3d&) { stored.push_back(r); });
+    }
+  };
+  drive_into(first, session_drive(1), 0, nullptr);
+  const std::size_t first_keyframes = stored.size();
+  REQUIRE(first_keyframes > 50);
+
+  LoopDetector second(config);
+  for (const KeyframeRecord& r : stored) CHECK(second.add_remote_keyframe(r));
+  CHECK_FALSE(second.add_remote_keyframe(stored.front()));  // held already
+  CHECK(second.remote_keyframes() == first_keyframes);
+  std::vector<LoopDecision> decisions;
+  drive_into(second, session_drive(2), 7, &decisions);
+
+  int remote_accepted = 0;
+  for (const LoopDecision& d : decisions) {
+    if (d.status != LoopStatus::kAccepted || d.match.session != 0) continue;
+    ++remote_accepted;
+    const Eigen::Isometry3d gt = truth.at(d.match).inverse() * truth.at(d.query);
+    const Eigen::Isometry3d err = gt.inverse() * d.T_match_query;
+    INFO("remote loop " << d.query.index << " -> " << d.match.index << ": " << err.translation().norm() << " m, " << rotation_deg(err) << " deg");
+    CHECK(err.translation().norm() < 0.3);
+    CHECK(rotation_deg(err) < 1.5);
+  }
+  CHECK(remote_accepted >= 2);
+  // The other vehicle's keyframes never join this detector's pose sequence: the joint correction places them.
+  CHECK(second.num_keyframes() == stored.size() - first_keyframes);
+}
