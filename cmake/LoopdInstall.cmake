@@ -1,7 +1,7 @@
 # cmake --install: binaries, headers (library + generated LCM types), loopd_types.jar, and a package config
 # so that find_package(loopd) works from another project.
 include(CMakePackageConfigHelpers)
-set(loopd_export_targets loopd_lcmtypes loopd_core ${LOOPD_MODULES})
+set(loopd_export_targets loopd_lcmtypes loopd_library ${LOOPD_MODULES})
 if(TARGET loopd_kernels)
   list(APPEND loopd_export_targets loopd_kernels)
 endif()

@@ -157,7 +157,7 @@ set(CPACK_DEBIAN_LOOPD-DEV_DESCRIPTION "lidar loop-closure library of loopd (dev
 The static libraries of loopd's pipeline (descriptors, segmentation,
 registration, verification, loop correction, map store), their headers,
 the C++ headers of loopd's LCM message types and the CMake package:
-find_package(loopd) and link loopd::loopd_core.")
+find_package(loopd) and link loopd::loopd_library.")
 
 # loopd-ros: bag2lcm alone; Depends only what dpkg-shlibdeps finds on it (the ROS 1 bag libraries, liblcm1, the C++
 # runtime). Nothing of the loopd package: loopd's libraries are linked in statically and bag2lcm reads no file of it. Not

@@ -16,7 +16,7 @@ if(LOOPD_SANITIZE)
   add_compile_options(${loopd_sanitize_flags})
   add_link_options(-fsanitize=${LOOPD_SANITIZE})
   # target_clones' ifunc resolver runs before the sanitizer runtime is up (TSan: SIGSEGV before main): see
-  # src/loopd/core/target_clones.hpp.
+  # src/loopd/base/target_clones.hpp.
   add_compile_definitions(LOOPD_NO_TARGET_CLONES=1)
   if(LOOPD_SANITIZE MATCHES "undefined")
     # GCC 12's -fsanitize=vptr miscompiles LCM 1.3.1's subscription callback (lcm-cpp-impl.hpp:108, the pointer-to-member

@@ -6,8 +6,8 @@
 # and lcm-gen's generated types come in as SYSTEM includes and are not checked.
 set(LOOPD_CONVERSION_CLEAN
   loopd_base loopd_io loopd_pcl_io loopd_sim loopd_opencl loopd_descriptor loopd_segmentation loopd_registration
-  loopd_keyframe loopd_verify loopd_correction loopd_pipeline loopd_eval loopd_map
-  loopd_bridge loopd_app loopd)
+  loopd_records loopd_verify loopd_correction loopd_pipeline loopd_eval loopd_store
+  loopd_lcm loopd_runtime loopd_app loopd)
 
 function(loopd_set_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wno-unused-parameter)

@@ -6,11 +6,11 @@
 #include <iostream>
 #include <unistd.h>
 
-#include "daemon_config.hpp"
-#include "loopd/core/sensor_estimate.hpp"
-#include "heap_release.hpp"
+#include "loopd/runtime/daemon_config.hpp"
+#include "loopd/base/sensor_estimate.hpp"
+#include "loopd/runtime/heap_release.hpp"
 #include "lcm_node.hpp"
-#include "log_level.hpp"
+#include "loopd/runtime/log_level.hpp"
 
 namespace {
 std::atomic<bool> g_stop{false};  // set only by the signal handler

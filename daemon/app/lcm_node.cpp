@@ -12,19 +12,17 @@
 #include <iostream>
 #include <lcm/lcm-cpp.hpp>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <variant>
 
 #include <pthread.h>
-#include <sys/stat.h>
 
 #include "bounded_decode.hpp"
-#include "fault_stall_sink.hpp"
-#include "log_level.hpp"
+#include "loopd/runtime/log_level.hpp"
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
-#include "map_writer.hpp"
-#include "republish_filter.hpp"
+#include "loopd/runtime/node_runtime.hpp"
 #include "output_messages.hpp"
 #include "systemd_notify.hpp"
 #include "trajectory_publisher.hpp"
@@ -263,101 +261,13 @@ void fill_summary(RunSummary* summary, LoopdEngine& engine, InputHandler& h) {
   summary->dropped_input = h.scan_.dropped + h.pose_.dropped;
 }
 
-/// The map store of a run, when one is configured: opened before the engine, resumed into it, written by MapWriter.
-struct MapSession {
-  std::unique_ptr<MapStore> store;
-  std::unique_ptr<RepublishFilter> republish;  ///< between the writer and the publisher
-  std::unique_ptr<MapWriter> writer;
-  bool holds_keyframes = false;
-};
-
-/// Opens node.map (nothing when no map is configured). False, with the reason printed, when the map cannot be used.
-bool open_map(const NodeConfig& node, MapSession* map) {
-  if (node.map.uri.empty()) return true;
-  OpenedMapStore opened = open_map_store(node.map);
-  if (!opened.status.ok()) {
-    std::cerr << "loopd: cannot use the map: " << opened.status.message << std::endl;
-    return false;
-  }
-  map->store = std::move(opened.store);
-  const StoreResult<MapStats> stats = map->store->stats();
-  map->holds_keyframes = stats.ok() && stats.value.keyframes > 0;
-  return true;
-}
-
-/// Fault injection for the crash test only: LOOPD_FAULT_CORRECTION_DELAY_MS (0 when unset).
-int fault_correction_delay_ms() {
-  const char* v = std::getenv("LOOPD_FAULT_CORRECTION_DELAY_MS");
-  return v ? std::max(0, std::atoi(v)) : 0;
-}
-
-/// The map's first session, created on a new map (later sessions are written with their first keyframe, MapWriter).
-bool ensure_session(MapStore& store, SessionId first_session, const std::string& sensor, const std::string& source) {
-  const StoreResult<std::vector<SessionRecord>> sessions = store.sessions();
-  StoreStatus status = sessions.status;
-  if (status.ok() && sessions.value.empty()) {
-    SessionRecord s;
-    s.id = first_session;
-    s.sensor = sensor;
-    s.source = source;
-    status = store.put_session(s);
-  }
-  if (!status.ok()) std::cerr << "loopd: cannot use the map: " << status.message << std::endl;
-  return status.ok();
-}
-
-/// The map's part of status_t: sizes from the file system (the store belongs to the engine's thread).
-MapStatus map_status(const MapSession& map, const NodeConfig& node, const EngineStats& s) {
-  MapStatus m;
-  m.cached_bytes = s.bytes_per_keyframe * s.keyframes;
-  if (!map.store) return m;
-  if (node.map_cache_mb > 0.0) m.cached_bytes = s.cached_feature_bytes;
-  m.path = node.map.uri;
-  const std::string file = m.path.rfind("sqlite://", 0) == 0 ? m.path.substr(9) : m.path;
-  for (const std::string& f : {file, file + "-wal"}) {
-    struct stat st {};
-    if (::stat(f.c_str(), &st) == 0) m.bytes += static_cast<std::int64_t>(st.st_size);
-  }
-  if (map.republish) m.events_not_republished = map.republish->not_republished();
-  if (map.writer) {
-    const MapWriterStats w = map.writer->stats();
-    m.write_failures = w.failures;
-    m.write_retries = w.busy_retries + w.retries;
-    m.writes_buffered = w.buffered;
-    m.last_error = w.last_error;
-  }
-  return m;
-}
-
-/// Brings the engine to where the map stopped. False, with the reason printed, when it cannot.
-bool resume_from_map(MapSession& map, LoopdEngine& engine, bool skip_stored_keyframes, const EngineConfig& config, const std::string& source) {
-  if (!map.store) return true;
-  if (!ensure_session(*map.store, config.sessions.first_session, config.detector.sensor, source)) return false;
-  const ResumeSummary r = engine.resume(*map.store, skip_stored_keyframes);
-  if (!r.ok) {
-    std::cerr << "loopd: " << r.error << std::endl;
-    return false;
-  }
-  if (map.republish) map.republish->expect(r.cut_off_published);
-  if (!log_enabled(LogLevel::kInfo)) return true;
-  std::fprintf(stderr, "loopd: map %s: %lld keyframes, %lld decisions, correction revision %lld restored in %.2f s", map.store->uri().c_str(),
-               static_cast<long long>(r.keyframes), static_cast<long long>(r.decisions), static_cast<long long>(r.revision), r.seconds);
-  if (r.dropped_undecided > 0)
-    std::fprintf(stderr, "; %lld keyframe(s) cut off by the stop are processed again", static_cast<long long>(r.dropped_undecided));
-  if (!r.corrections.empty()) std::fprintf(stderr, "; %zu correction(s) cut off by the stop made again", r.corrections.size());
-  if (!r.cut_off.empty())
-    std::fprintf(stderr, "; their %zu decision(s) keep their event ids and are not published again when decided the same", r.cut_off.size());
-  std::fprintf(stderr, "\n");
-  return true;
-}
-
 /// The service manager's view of a live run (sd_notify): READY=1 once listening, a STATUS= line every status period,
 /// WATCHDOG=1 while the pipeline makes progress, STOPPING=1 at the stop. Polled from the loop that handles LCM, so a
 /// stuck LCM loop stops the pings too. Without NOTIFY_SOCKET only the stall log lines remain.
 class ServiceLink {
  public:
-  ServiceLink(const NodeConfig& node, LoopdEngine& engine, const MapSession& map, const std::atomic<std::int64_t>& ingest_steps)
-      : node_(node), engine_(engine), map_(map), ingest_steps_(ingest_steps), watchdog_(notifier_, node.watchdog_stall) {
+  ServiceLink(const NodeConfig& node, NodeRuntime& runtime, const std::atomic<std::int64_t>& ingest_steps)
+      : node_(node), runtime_(runtime), engine_(runtime.engine()), ingest_steps_(ingest_steps), watchdog_(notifier_, node.watchdog_stall) {
     if (notifier_.watchdog_usec() > 0 && log_enabled(LogLevel::kInfo))
       std::fprintf(stderr, "loopd: systemd watchdog: a ping every %.1f s while the pipeline makes progress (stall limit %.1f s)\n",
                    notifier_.ping_interval_s(), node.watchdog_stall);
@@ -382,7 +292,7 @@ class ServiceLink {
  private:
   std::string status_line() const {
     const EngineStats s = engine_.stats();
-    const MapStatus m = map_status(map_, node_, s);
+    const MapStatus m = runtime_.map_status(s);
     std::string map = m.path.empty() ? "map in memory" : "map " + m.path + " " + std::to_string(m.bytes / 1048576) + " MB";
     if (m.write_failures > 0) map += ", " + std::to_string(m.write_failures) + " refused writes";
     return "keyframes " + std::to_string(s.keyframes) + ", loops accepted " + std::to_string(s.loops_accepted) + ", rejected " +
@@ -390,53 +300,13 @@ class ServiceLink {
   }
 
   const NodeConfig& node_;
+  NodeRuntime& runtime_;
   LoopdEngine& engine_;
-  const MapSession& map_;
   const std::atomic<std::int64_t>& ingest_steps_;
   SystemdNotifier notifier_;
   PipelineWatchdog watchdog_;
   double next_status_s_ = 0.0;
 };
-
-/// TEST-ONLY: the sequential-stage stall the watchdog test arms through the environment (see FaultStallSink).
-std::unique_ptr<FaultStallSink> fault_stall_sink(EngineSink& next) {
-  const auto stall = FaultStallSink::from_environment();
-  if (!stall) return nullptr;
-  std::fprintf(stderr, "loopd: TEST-ONLY fault armed: the sequential stage stalls %d ms at keyframe %lld\n", stall->second,
-               static_cast<long long>(stall->first));
-  return std::make_unique<FaultStallSink>(next, stall->first, stall->second);
-}
-
-/// In a fleet (node.fleet.vehicle >= 0): the fleet thread on its own connection, feeding the engine the other
-/// vehicles' keyframes and publishing the joint correction through `sink`. Null (the reason printed) when it cannot.
-std::unique_ptr<FleetSync> start_fleet(const NodeConfig& node, const EngineConfig& engine_config, const MapSession& map, LoopdEngine& engine,
-                                       OutputSink& sink) {
-  if (node.fleet.vehicle < 0 || !map.store) return nullptr;
-  const KeyframeLoad remote_load = node.map_cache_mb > 0.0 ? KeyframeLoad::kDescriptor : KeyframeLoad::kFull;
-  auto fleet = std::make_unique<FleetSync>(node.fleet, node.map, engine_config.detector.correction, remote_load,
-                                           [&sink](const CorrectionOutput& c) { sink.on_correction(c); });
-  if (auto e = fleet->start()) {
-    std::cerr << "loopd: cannot join the fleet: " << *e << std::endl;
-    return nullptr;
-  }
-  FleetSync* feed = fleet.get();
-  engine.set_remote_feed([feed] { return feed->take_remote(); });
-  if (log_enabled(LogLevel::kInfo))
-    std::fprintf(stderr, "loopd: fleet vehicle %d on %s: sessions from %d, the others' keyframes read every %.1f s\n", node.fleet.vehicle,
-                 map.store->uri().c_str(), engine_config.sessions.first_session, node.fleet.poll_interval);
-  return fleet;
-}
-
-/// At the end of a run: buffered map writes get up to fleet.flush_timeout to reach an unavailable server, then the
-/// fleet's last round (read, solve, publish).
-void finish_map(const NodeConfig& node, MapSession& map, FleetSync* fleet) {
-  if (map.writer && !map.writer->flush(node.fleet.flush_timeout)) {
-    const MapWriterStats w = map.writer->stats();
-    std::fprintf(stderr, "loopd: MAP WRITES LOST: %lld write(s) still waited for the map server after %.0f s: %s\n",
-                 static_cast<long long>(w.buffered), node.fleet.flush_timeout, w.last_error.c_str());
-  }
-  if (fleet) fleet->stop();
-}
 
 /// Handles LCM until `stop`, polling the service link at least every 100 ms. False after an LCM error.
 bool handle_lcm_until_stopped(lcm::LCM& lcm, const std::atomic<bool>& stop, ServiceLink& service) {
@@ -452,26 +322,6 @@ bool handle_lcm_until_stopped(lcm::LCM& lcm, const std::atomic<bool>& stop, Serv
 }
 
 }  // namespace
-
-std::optional<std::string> NodeConfig::validate() const {
-  if (lcm_url.empty()) return "lcm_url must not be empty";
-  for (const auto* c : {&scan_channel, &pose_channel, &loop_event_channel, &trajectory_channel, &status_channel})
-    if (c->empty()) return "channels: channel names must not be empty";
-  if (input_queue_capacity < 1) return "input_queue_capacity must be >= 1";
-  if (log_every_n < 1) return "log_every_n must be >= 1";
-  if (!(status_period > 0.0 && status_period <= 1e6)) return "status_period must be in (0, 1e6] [s]";
-  if (!(watchdog_stall > 0.0 && watchdog_stall <= 1e6)) return "watchdog_stall must be in (0, 1e6] [s]";
-  if (!map.uri.empty())
-    if (auto e = map.validate()) return "map: " + *e;
-  if (!(map_cache_mb >= 0.0 && map_cache_mb <= 1e7)) return "map.cache_mb must be in [0, 1e7] [MB]";
-  if (auto e = trajectory_output.validate()) return *e;
-  if (auto e = fleet.validate()) return *e;
-  const bool postgres = map.uri.rfind("postgresql://", 0) == 0 || map.uri.rfind("postgres://", 0) == 0;
-  if (fleet.vehicle >= 0 && !postgres) return "fleet.vehicle needs a shared map (map.path postgresql://...)";
-  if (max_buffered_keyframes < 1) return "map.max_buffered_keyframes must be >= 1";
-  if (!(map_retry_period >= 0.1 && map_retry_period <= 600.0)) return "map.retry_period must be in [0.1, 600] s";
-  return std::nullopt;
-}
 
 bool check_receive_buffer(const std::string& lcm_url, std::int64_t points) {
   if (lcm_url.rfind("udpm://", 0) != 0) return false;
@@ -497,25 +347,6 @@ bool check_receive_buffer(const std::string& lcm_url, std::int64_t points) {
   return true;
 }
 
-/// The map's writer between the engine and the outputs (live and replay alike): it commits each record before passing
-/// it on; a republish filter keeps a resumed run from publishing twice; in a fleet the joint correction is published.
-void wire_map_writer(const NodeConfig& node, const std::string& sensor, const std::string& origin, EngineSink& sink,
-                     LocalCorrectionFilter& fleet_output, MapSession& map) {
-  if (!map.store) return;
-  map.republish = std::make_unique<RepublishFilter>(node.fleet.vehicle >= 0 ? static_cast<EngineSink&>(fleet_output) : sink);
-  map.writer = std::make_unique<MapWriter>(*map.store, *map.republish, node.log_every_n, fault_correction_delay_ms());
-  map.writer->set_session_origin(sensor, origin);
-  map.writer->set_max_buffered_keyframes(node.max_buffered_keyframes);
-  map.writer->set_retry_period(node.map_retry_period);
-}
-
-/// The engine reads keyframes' prepared scans back from the map (bounded cache) and stores map clouds there.
-void attach_map(const NodeConfig& node, const MapSession& map, LoopdEngine& engine) {
-  if (!map.store) return;
-  if (node.map_cache_mb > 0.0) engine.keep_features_in_store(*map.store, static_cast<std::size_t>(node.map_cache_mb * 1048576.0));
-  engine.make_map_clouds();
-}
-
 int run_live(const NodeConfig& node, const EngineConfig& engine_config, const std::atomic<bool>& stop, RunSummary* summary) {
   lcm::LCM lcm(node.lcm_url);
   if (!lcm.good()) {
@@ -527,21 +358,13 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
       sensor_model_from_choice(engine_config.detector.sensor, engine_config.detector.sensor_elevations_deg, engine_config.detector.sensor_columns);
   check_receive_buffer(node.lcm_url, model ? model->rays_per_scan() : 130000);
   const double start = wall_s();
-  MapSession map;
-  if (!open_map(node, &map)) return 2;
-  OutputSink sink(node, &lcm, nullptr, false);
-  LocalCorrectionFilter fleet_output(sink);  // in a fleet the joint correction is published, not the detector's
-  wire_map_writer(node, engine_config.detector.sensor, "live " + node.lcm_url, sink, fleet_output, map);
-  EngineSink* first_sink = map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink;
-  const std::unique_ptr<FaultStallSink> stall = fault_stall_sink(*first_sink);
-  if (stall) first_sink = stall.get();
+  OutputSink sink(node, &lcm, nullptr, false);  // before the runtime: its engine and writer deliver to it until they go
+  NodeRuntime runtime(node);
+  if (!runtime.open_map()) return 2;
   EngineConfig live_config = engine_config;
   live_config.detector.parallel_candidates = true;  // spare cores shorten the latency tail; same decisions
-  LoopdEngine engine(live_config, first_sink);
-  attach_map(node, map, engine);
-  if (!resume_from_map(map, engine, false, engine_config, "live " + node.lcm_url)) return 2;
-  const std::unique_ptr<FleetSync> fleet = start_fleet(node, engine_config, map, engine, sink);
-  if (node.fleet.vehicle >= 0 && !fleet) return 2;
+  if (!runtime.start(live_config, sink, "live " + node.lcm_url, false)) return 2;
+  LoopdEngine& engine = runtime.engine();
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
 
@@ -587,7 +410,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
         const EngineStats s = engine.stats();
         health_log.update(s, node.log_every_n);
         sink.publish(node.status_channel, wall_utime(),
-                     make_status(wall_utime(), now - start, s, counters(handler, s), resident_memory_bytes(), map_status(map, node, s)));
+                     make_status(wall_utime(), now - start, s, counters(handler, s), resident_memory_bytes(), runtime.map_status(s)));
       }
     }
   });
@@ -595,7 +418,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   if (log_enabled(LogLevel::kInfo))
     std::cerr << "loopd: listening on " << node.scan_channel << " and " << node.pose_channel << " (" << node.lcm_url
               << "), descriptor device: " << engine.stats().device << std::endl;
-  ServiceLink service(node, engine, map, ingest_steps);
+  ServiceLink service(node, runtime, ingest_steps);
   service.ready();  // the map is open and resumed, both channels subscribed
   const bool lcm_ok = handle_lcm_until_stopped(lcm, stop, service);
   service.stopping();  // before the engine drains and the map closes
@@ -605,8 +428,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   }
   qcv.notify_all();
   ingest_thread.join();
-  engine.finish();
-  finish_map(node, map, fleet.get());
+  runtime.finish();
   fill_summary(summary, engine, handler);
   if (summary) summary->seconds = wall_s() - start;
   return lcm_ok ? 0 : 3;
@@ -622,15 +444,16 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
     std::cerr << "loopd: " << error << std::endl;
     return 2;
   }
-  MapSession map;
-  if (!open_map(node, &map)) return 2;
   LogWriter writer;
+  std::unique_ptr<lcm::LCM> publisher;
+  std::optional<OutputSink> sink;  // before the runtime: its engine and writer deliver to it until they go
+  NodeRuntime runtime(node);
+  if (!runtime.open_map()) return 2;
   // A replay resumed on its map adds the rest of the events to the output of the run that stopped.
-  if (!output_log.empty() && !writer.open(output_log, &error, map.holds_keyframes)) {
+  if (!output_log.empty() && !writer.open(output_log, &error, runtime.map_holds_keyframes())) {
     std::cerr << "loopd: " << error << std::endl;
     return 2;
   }
-  std::unique_ptr<lcm::LCM> publisher;
   if (!publish_url.empty()) {
     publisher = std::make_unique<lcm::LCM>(publish_url);
     if (!publisher->good()) {
@@ -641,14 +464,9 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   const double start = wall_s();
   EngineConfig config = engine_config;
   config.block_when_full = true;  // replay never sheds: it waits for the workers
-  OutputSink sink(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
-  LocalCorrectionFilter fleet_output(sink);  // in a fleet the joint correction is published, not the detector's
-  wire_map_writer(node, engine_config.detector.sensor, "replay " + input_log, sink, fleet_output, map);
-  LoopdEngine engine(config, map.writer ? static_cast<EngineSink*>(map.writer.get()) : &sink);
-  attach_map(node, map, engine);
-  if (!resume_from_map(map, engine, true, engine_config, "replay " + input_log)) return 2;
-  const std::unique_ptr<FleetSync> fleet = start_fleet(node, engine_config, map, engine, sink);
-  if (node.fleet.vehicle >= 0 && !fleet) return 2;
+  sink.emplace(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
+  if (!runtime.start(config, *sink, "replay " + input_log, true)) return 2;
+  LoopdEngine& engine = runtime.engine();
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
   std::int64_t last_data_utime = 0, first_data_utime = 0, next_status_utime = 0;
@@ -660,9 +478,9 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
       next_status_utime = last_data_utime + static_cast<std::int64_t>(node.status_period * 1e6);
       EngineStats s = engine.stats();
       health_log.update(s, node.log_every_n);
-      sink.publish(node.status_channel, last_data_utime,
-                   make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s),
-                               resident_memory_bytes(), map_status(map, node, s)));
+      sink->publish(node.status_channel, last_data_utime,
+                    make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s),
+                                resident_memory_bytes(), runtime.map_status(s)));
     }
     return true;
   };
@@ -673,19 +491,18 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
     handler.on_bytes(event.data.data(), event.data.size(), event.channel, static_cast<double>(event.timestamp) * 1e-6);
   }
   if (!reader.problems().empty()) std::cerr << "loopd: " << reader.problems() << " (the rest of the log was read)" << std::endl;
-  engine.finish();
-  finish_map(node, map, fleet.get());
-  sink.finish_trajectory();
+  runtime.finish();
+  sink->finish_trajectory();
   const EngineStats s = engine.stats();
   health_log.update(s, node.log_every_n);
-  sink.publish(node.status_channel, last_data_utime,
-               make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s),
-                           resident_memory_bytes(), map_status(map, node, s)));
+  sink->publish(node.status_channel, last_data_utime,
+                make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s),
+                            resident_memory_bytes(), runtime.map_status(s)));
   fill_summary(summary, engine, handler);
   if (summary) {
     summary->seconds = wall_s() - start;
     summary->data_seconds = static_cast<double>(last_data_utime - first_data_utime) * 1e-6;
-    summary->events_written = sink.written();
+    summary->events_written = sink->written();
     summary->log_corrupt_headers = reader.stats().corrupt_headers;
   }
   writer.close();

@@ -4,53 +4,9 @@
 #include <optional>
 #include <string>
 
-#include "log_level.hpp"
-#include "loopd/map/map_store.hpp"
-#include "fleet_sync.hpp"
-#include "loopd_engine.hpp"
-#include "trajectory_publisher.hpp"
+#include "loopd/runtime/node_config.hpp"
 
 namespace loopd {
-
-/// @brief LCM-facing settings of the daemon.
-struct NodeConfig {
-  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
-  std::string scan_channel = "LIDAR_SCAN";
-  std::string pose_channel = "ODOMETRY_POSE";
-  std::string loop_event_channel = "LOOP_EVENT";
-  std::string trajectory_channel = "CORRECTED_TRAJECTORY";
-  std::string status_channel = "LOOPD_STATUS";
-  int input_queue_capacity = 256;  ///< decoded messages waiting for the ingest thread (live); beyond it they are dropped
-  int log_every_n = 100;           ///< a repeated anomaly is logged on its 1st, (N+1)th, ... occurrence
-  double status_period = 1.0;      ///< [s] status_t period (and the systemd STATUS= line's)
-  /// [s] under systemd (WATCHDOG_USEC): WATCHDOG=1 pings stop when a pipeline stage has had work waiting this long
-  /// without progress; systemd then restarts loopd after WatchdogSec=. Longer than the longest legitimate step: a
-  /// pose-graph solve took up to ~20 s on 20,000 keyframes of a lap visited 45 times (max_nodes 4000).
-  double watchdog_stall = 120.0;
-  bool quiet = false;                    ///< no per-loop log lines
-  LogLevel log_level = LogLevel::kInfo;  ///< which stderr lines are written (log_level: error, warn, info)
-  /// The map store (map.path / --map): empty uri = everything in memory, as before.
-  MapStoreConfig map;
-  /// [MB] with a map: keyframe features beyond this LRU cache live only in the map (read back for candidates);
-  /// 0: every keyframe's features stay in memory.
-  double map_cache_mb = 512.0;
-  /// How much of the corrected trajectory each revision publishes (output.*).
-  TrajectoryPublisherConfig trajectory_output;
-  FleetConfig fleet;                           ///< a fleet on one shared (postgresql://) map (fleet.*)
-  std::int64_t max_buffered_keyframes = 5000;  ///< map.max_buffered_keyframes: writes kept while the map server is away
-  double map_retry_period = 2.0;               ///< map.retry_period [s]: the longest pause between tries of writes waiting for the map
-  std::optional<std::string> validate() const;
-};
-
-/// @brief Result of a run, for the exit summary.
-struct RunSummary {
-  EngineStats engine;
-  std::int64_t scans_received = 0, poses_received = 0, malformed = 0, dropped_input = 0;
-  std::int64_t events_written = 0;
-  std::int64_t log_corrupt_headers = 0;  ///< replay: damaged event headers skipped in the input log
-  double seconds = 0.0;
-  double data_seconds = 0.0;
-};
 
 /// @brief Live: subscribes on the bus, the LCM thread only decodes and enqueues, an ingest thread feeds the
 ///        engine; runs until `stop` becomes true. Under systemd (NOTIFY_SOCKET) it notifies READY=1 once the map is open

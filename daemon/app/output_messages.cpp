@@ -4,41 +4,9 @@
 #include <cstdlib>
 #include <fstream>
 
-#include "loopd/core/pose.hpp"
+#include "loopd/base/pose.hpp"
 
 namespace loopd {
-
-loop_event_t to_message(const LoopDecision& d, std::int64_t utime) {
-  loop_event_t m{};
-  m.utime = utime;
-  m.event_id = d.event_id;
-  m.query_id = d.query.index;
-  m.query_utime = d.query_utime;
-  m.match_id = d.match.index;
-  m.match_utime = d.match_utime;
-  m.status = static_cast<int8_t>(d.status);
-  m.stage = d.stage;
-  m.reason = d.reason;
-  m.gate_distance = d.gate_distance;
-  m.gate_radius = d.gate_radius;
-  m.descriptor_distance = d.descriptor_distance;
-  m.lcp_fraction = d.lcp_fraction;
-  m.icp_residual = d.icp_residual;
-  m.icp_fitness = d.icp_fitness;
-  m.hungarian_consistency = d.hungarian_consistency;
-  m.degeneracy = d.degeneracy;
-  to_row_major(d.T_match_query, m.T_match_query);
-  m.ms_descriptor = d.ms_descriptor;
-  m.ms_fourpcs = d.ms_fourpcs;
-  m.ms_gicp = d.ms_gicp;
-  m.ms_hungarian = d.ms_hungarian;
-  m.ms_total = d.ms_total;
-  m.query_session = d.query.session;
-  m.match_session = d.match.session;
-  m.retrieval = d.retrieval;
-  m.place_distance = d.place_distance;
-  return m;
-}
 
 trajectory_t to_message_header(const CorrectionOutput& c, std::int64_t utime) {
   trajectory_t m{};

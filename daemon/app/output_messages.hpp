@@ -6,12 +6,12 @@
 #include <loopd/status_t.hpp>
 #include <loopd/trajectory_t.hpp>
 
-#include "loopd_engine.hpp"
+#include "loop_event_convert.hpp"
+#include "loopd/runtime/loopd_engine.hpp"
+#include "loopd/runtime/node_runtime.hpp"
 
 namespace loopd {
 
-/// @brief loop_event_t for one decision; utime is the decision time [us].
-loop_event_t to_message(const LoopDecision& d, std::int64_t utime);
 /// @brief trajectory_t for one correction with every keyframe (full = true); utime is the publication time [us].
 trajectory_t to_message(const CorrectionOutput& c, std::int64_t utime);
 /// @brief trajectory_t for one correction without keyframes (revision, event, method, T_map_odom; full = false).
@@ -26,18 +26,6 @@ struct ChannelCounters {
 };
 
 /// @brief status_t from the engine's and the channels' counters.
-/// @brief The map store's part of status_t.
-struct MapStatus {
-  std::string path;                  ///< "" without a map
-  std::int64_t bytes = 0;            ///< on disk
-  std::int64_t cached_bytes = 0;     ///< keyframe features in memory
-  std::int64_t write_failures = 0;   ///< writes given up (MapWriterStats::failures)
-  std::int64_t write_retries = 0;    ///< busy retries and tries again from the buffer
-  std::int64_t writes_buffered = 0;  ///< writes waiting for the map now
-  std::int64_t events_not_republished = 0;
-  std::string last_error;
-};
-
 status_t make_status(std::int64_t utime, double uptime_s, const EngineStats& s, const std::vector<ChannelCounters>& channels,
                      std::int64_t memory_bytes, const MapStatus& map = {});
 

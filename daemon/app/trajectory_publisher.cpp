@@ -6,13 +6,6 @@
 
 namespace loopd {
 
-std::optional<std::string> TrajectoryPublisherConfig::validate() const {
-  if (!(min_move >= 0.0 && std::isfinite(min_move))) return "output.trajectory_min_move must be a finite number >= 0 [m]";
-  if (!(min_turn_deg >= 0.0 && min_turn_deg <= 180.0)) return "output.trajectory_min_turn_deg must be in [0, 180] [deg]";
-  if (!(snapshot_period >= 0.0 && snapshot_period <= 1e6)) return "output.trajectory_snapshot_period must be in [0, 1e6] [s]";
-  return std::nullopt;
-}
-
 bool TrajectoryPublisher::snapshot_due(const CorrectionOutput& c, std::int64_t utime) const {
   if (!last_snapshot_utime_ || config_.snapshot_period <= 0.0) return true;
   // A clock that went backwards (live clock jump) restarts the period.

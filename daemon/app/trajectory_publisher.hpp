@@ -7,17 +7,10 @@
 
 #include <loopd/trajectory_t.hpp>
 
-#include "loopd_engine.hpp"
+#include "loopd/runtime/loopd_engine.hpp"
+#include "loopd/runtime/node_config.hpp"
 
 namespace loopd {
-
-/// @brief How much of the corrected trajectory each revision publishes (config keys output.*).
-struct TrajectoryPublisherConfig {
-  double min_move = 0.01;         ///< [m] a keyframe is published again when its corrected position moved more than this
-  double min_turn_deg = 0.1;      ///< [deg] ... or its corrected orientation turned more than this
-  double snapshot_period = 10.0;  ///< [s] of publication time between full snapshots; 0 = every revision is full (as before)
-  std::optional<std::string> validate() const;
-};
 
 /// @brief Counters of what was published.
 struct TrajectoryPublisherStats {

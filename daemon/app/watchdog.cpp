@@ -2,18 +2,9 @@
 
 #include <cstdio>
 
-#include "log_level.hpp"
+#include "loopd/runtime/log_level.hpp"
 
 namespace loopd {
-
-bool ProgressWatch::update(const StageProgress& progress, double now_s) {
-  if (!seen_ || !progress.pending || progress.steps != last_steps_) {
-    seen_ = true;
-    last_steps_ = progress.steps;
-    last_progress_s_ = now_s;
-  }
-  return now_s - last_progress_s_ <= stall_s_;
-}
 
 bool PipelineWatchdog::poll(const std::vector<NamedProgress>& stages, double now_s) {
   if (watches_.size() != stages.size()) watches_.assign(stages.size(), ProgressWatch(stall_s_));

@@ -15,7 +15,7 @@
 #include <thread>
 #include <unistd.h>
 
-#include "loopd_engine.hpp"
+#include "loopd/runtime/loopd_engine.hpp"
 #include "systemd_notify.hpp"
 #include "watchdog.hpp"
 

@@ -5,7 +5,7 @@
 
 #include "loopd/correction/loop_corrector.hpp"
 #include "loopd/correction/pose_graph.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "loopd/correction/trajectory_tools.hpp"
 #include "support/data_dir.hpp"
 

@@ -6,7 +6,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "loopd/correction/loop_file.hpp"
 #include "loopd/correction/trajectory_tools.hpp"
 

@@ -3,7 +3,7 @@
 /// size and height on both sides, poles. Deterministic for the seed; different seeds are different places.
 #include <random>
 
-#include "loopd/core/point_cloud.hpp"
+#include "loopd/base/point_cloud.hpp"
 #include "verify/synthetic_scene.hpp"
 
 namespace loopd::test {

@@ -6,8 +6,8 @@
 #include <limits>
 #include <random>
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/lidar_model.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/lidar_model.hpp"
 #include "loopd/descriptor/m2dp.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/sim/lidar_sim.hpp"

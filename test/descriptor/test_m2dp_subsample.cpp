@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cstdio>
 
-#include "loopd/core/cloud_ops.hpp"
+#include "loopd/base/cloud_ops.hpp"
 #include "loopd/descriptor/m2dp.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/sim/drive.hpp"

@@ -5,8 +5,8 @@
 #include <limits>
 
 #include "descriptor/scan_context_scene.hpp"
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/descriptor/scan_context.hpp"
 
 using namespace loopd;

@@ -16,7 +16,7 @@
 #include "lcm_log.hpp"
 #include "support/hostile_log.hpp"
 #include "support/run_command.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/pose.hpp"
 #include "message_convert.hpp"
 
 using namespace loopd;

@@ -20,8 +20,9 @@
 
 #include "bounded_decode.hpp"
 #include "lcm_log.hpp"
-#include "loopd/map/map_store.hpp"
-#include "loopd/map/shared_map.hpp"
+#include "loopd/store/map_store.hpp"
+#include "loopd/store/shared_map.hpp"
+#include "loopd/records/vehicle_sessions.hpp"
 #include "support/process.hpp"
 #include "support/run_command.hpp"
 #include "support/temp_dir.hpp"
@@ -65,7 +66,9 @@ Published read_output(const std::string& path) {
 
 std::multiset<Decision> stored_decisions(MapStore& store) {
   std::multiset<Decision> out;
-  store.for_each_loop(false, [&](LoopRecord&& r) { out.insert({r.query.session, r.query.index, r.match.session, r.match.index, r.status}); });
+  store.for_each_loop(false, [&](LoopDecision&& r) {
+    out.insert({r.query.session, r.query.index, r.match.session, r.match.index, status_code(r.status)});
+  });
   return out;
 }
 

@@ -24,7 +24,7 @@
 
 #include "bounded_decode.hpp"
 #include "lcm_log.hpp"
-#include "loopd/map/map_store.hpp"
+#include "loopd/store/map_store.hpp"
 #include "support/process.hpp"
 #include "support/run_command.hpp"
 
@@ -142,7 +142,7 @@ TEST_CASE("a replay on a map, killed with SIGKILL again and again, loses nothing
     OpenedMapStore opened = open_map_store(MapStoreConfig{map, "normal", true});
     REQUIRE(opened.status.ok());
     std::set<std::pair<std::int64_t, std::int64_t>> stored;
-    REQUIRE(opened.store->for_each_loop(true, [&](LoopRecord&& r) { stored.insert({r.query.index, r.match.index}); }).ok());
+    REQUIRE(opened.store->for_each_loop(true, [&](LoopDecision&& r) { stored.insert({r.query.index, r.match.index}); }).ok());
     // Cut inside a solve: an accepted loop is stored but the stored correction does not cover it yet.
     const StoreResult<std::optional<CorrectionRecord>> correction = opened.store->correction();
     REQUIRE(correction.ok());
@@ -184,7 +184,7 @@ TEST_CASE("a replay on a map, killed with SIGKILL again and again, loses nothing
   OpenedMapStore opened = open_map_store(MapStoreConfig{map, "normal", true});
   REQUIRE(opened.status.ok());
   std::set<std::pair<std::int64_t, std::int64_t>> stored;
-  REQUIRE(opened.store->for_each_loop(true, [&](LoopRecord&& r) { stored.insert({r.query.index, r.match.index}); }).ok());
+  REQUIRE(opened.store->for_each_loop(true, [&](LoopDecision&& r) { stored.insert({r.query.index, r.match.index}); }).ok());
   CHECK(stored == clean.accepted);
   for (const auto& pair : published_before_kills) CHECK(stored.count(pair) == 1);
   const StoreStatus check = opened.store->check();

@@ -46,15 +46,15 @@ TEST_CASE("3D map: the corrected map is nearer ground truth than the odometry ma
   INFO(log);
   REQUIRE(rc == 0);
 
-  const std::string loopd_map = kBin + "/tools/loopd-map/loopd-map " + map;
-  const nlohmann::json corrected = run_json(loopd_map + " export-cloud --json --out " + dir.file("map.pcd"));
+  const std::string loopd_store = kBin + "/tools/loopd-map/loopd-map " + map;
+  const nlohmann::json corrected = run_json(loopd_store + " export-cloud --json --out " + dir.file("map.pcd"));
   CHECK(corrected["keyframes"].get<int>() > 100);
   CHECK(corrected["keyframes_without_cloud"].get<int>() == 0);
   CHECK(corrected["points"].get<int>() > 50000);
   CHECK(corrected["points_cleared"].get<int>() > 0);
   CHECK(corrected["correction_revision"].get<int>() > 0);
-  run_json(loopd_map + " export-cloud --json --odometry --out " + dir.file("odometry.ply"));
-  run_json(loopd_map + " export-cloud --json --keep-moving --keep-roadway-noise --keep-outliers --out " + dir.file("raw.pcd"));
+  run_json(loopd_store + " export-cloud --json --odometry --out " + dir.file("odometry.ply"));
+  run_json(loopd_store + " export-cloud --json --keep-moving --keep-roadway-noise --keep-outliers --out " + dir.file("raw.pcd"));
 
   const std::string eval = kBin + "/tools/loopd-eval/loopd-eval --json --quiet --drive " + drive + " --results " + out + " --movers " + movers +
                            " --map-cloud-odometry " + dir.file("odometry.ply") + " --map-cloud ";
@@ -68,24 +68,24 @@ TEST_CASE("3D map: the corrected map is nearer ground truth than the odometry ma
   CHECK(cleaned["map_moving_points"].get<int>() < raw["map_moving_points"].get<int>());
   CHECK(cleaned["map_completeness"].get<double>() > 0.9 * raw["map_completeness"].get<double>());  // little static lost
 
-  const nlohmann::json octomap = run_json(loopd_map + " export-octomap --json --out " + dir.file("map.bt"));
+  const nlohmann::json octomap = run_json(loopd_store + " export-octomap --json --out " + dir.file("map.bt"));
   CHECK(octomap["octree_leaves"].get<int>() > 10000);
   CHECK(head_of(dir.file("map.bt"), 28) == "# Octomap OcTree binary file");
-  const nlohmann::json picture = run_json(loopd_map + " picture --json --out " + dir.file("map.png") + " --cloud " + dir.file("map.pcd"));
+  const nlohmann::json picture = run_json(loopd_store + " picture --json --out " + dir.file("map.png") + " --cloud " + dir.file("map.pcd"));
   CHECK(picture["loops"].get<int>() > 0);
   CHECK(head_of(dir.file("map.png"), 4) == "\x89PNG");
 
   // Bad requests: a clear error, exit status 2, nothing half-written.
-  log = test::run_command(loopd_map + " export-cloud --out " + dir.file("map.xyz"), &rc);
+  log = test::run_command(loopd_store + " export-cloud --out " + dir.file("map.xyz"), &rc);
   CHECK(rc == 2);
   CHECK(log.find("map.xyz") != std::string::npos);
-  log = test::run_command(loopd_map + " export-cloud --session 7 --out " + dir.file("none.pcd"), &rc);
+  log = test::run_command(loopd_store + " export-cloud --session 7 --out " + dir.file("none.pcd"), &rc);
   CHECK(rc == 2);
   CHECK(log.find("no keyframes of session 7") != std::string::npos);
   PointCloud stray;
   stray.points = {{0.f, 0.f, 0.f}, {5e6f, 0.f, 0.f}};
   REQUIRE_FALSE(write_cloud_file(dir.file("stray.pcd"), stray).has_value());
-  log = test::run_command(loopd_map + " picture --out " + dir.file("stray.png") + " --cloud " + dir.file("stray.pcd"), &rc);
+  log = test::run_command(loopd_store + " picture --out " + dir.file("stray.png") + " --cloud " + dir.file("stray.pcd"), &rc);
   CHECK(rc == 2);
   CHECK(log.find("spans more than 1000 km") != std::string::npos);
 }

@@ -175,7 +175,7 @@ TEST_CASE("injected odometry drift is deterministic and grows with distance") {
   CHECK(a.residuals[1] > cfg.residual_base);
 }
 
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "loopd/io/kitti_files.hpp"
 #include "support/data_dir.hpp"
 
@@ -327,12 +327,12 @@ TEST_CASE("evaluate: inter-session loops counted under the closure rule, session
   // one rejected (not counted).
   for (const auto& [qi, mi, off, status] : {std::tuple{40, 10, 0.0, LoopStatus::kAccepted}, std::tuple{50, 20, 1.0, LoopStatus::kAccepted},
                                             std::tuple{60, 30, 0.0, LoopStatus::kRejected}}) {
-    LoopRecord r;
+    LoopDecision r;
     r.event_id = static_cast<std::int64_t>(in.loops.size());
     r.query_utime = t.keyframes[static_cast<std::size_t>(100 + qi)].utime;
     r.match_utime = t.keyframes[static_cast<std::size_t>(mi)].utime;
-    r.query_session = 1;
-    r.match_session = 0;
+    r.query.session = 1;
+    r.match.session = 0;
     r.status = status;
     r.stage = status == LoopStatus::kAccepted ? "accepted" : "gicp";
     r.T_match_query = t.keyframes[static_cast<std::size_t>(mi)].T_world.inverse() * t.keyframes[static_cast<std::size_t>(100 + qi)].T_world;

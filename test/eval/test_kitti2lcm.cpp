@@ -9,12 +9,12 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "support/data_dir.hpp"
 
-#if 1  // LCM types and lcm_log.hpp are always linked (loopd_bridge)
+#if 1  // LCM types and lcm_log.hpp are always linked (loopd_lcm)
 #define LOOPD_EVAL_TEST_HAS_LCM 1
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
@@ -296,5 +296,5 @@ TEST_CASE("kitti2lcm on the real KITTI 00 scans (skips without ../shared/data)")
   fs::remove_all(d);
 }
 #else
-TEST_CASE("kitti2lcm (skipped: test not linked to loopd_bridge)") { WARN("skipped: no LCM headers"); }
+TEST_CASE("kitti2lcm (skipped: test not linked to loopd_lcm)") { WARN("skipped: no LCM headers"); }
 #endif

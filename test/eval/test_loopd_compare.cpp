@@ -15,7 +15,8 @@
 #include <loopd/trajectory_t.hpp>
 
 #include "lcm_log.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/pose.hpp"
+#include "loopd/records/keyframe_key.hpp"
 #include "message_convert.hpp"
 #include "support/run_command.hpp"
 
@@ -257,5 +258,69 @@ TEST_CASE("loopd-compare: a missing file, a file that is not a loopd log and bad
   CHECK(rc == 2);
   log = test::run_command(kCompare + " --tolerance-m -1 " + text + " " + text, &rc);
   CHECK(rc == 2);
+  fs::remove_all(dir);
+}
+
+namespace {
+
+/// A loopd output log of two sessions whose keyframe ids repeat (ids count from 0 in each session): one accepted loop
+/// from `loop_query` to keyframe 0/3, and one full trajectory with keyframes 0/5 at x = 0 and 1/5 at x = `x_1_5`.
+void write_two_session_log(const std::string& path, KeyframeKey loop_query, double x_1_5) {
+  LogWriter writer;
+  std::string error;
+  REQUIRE(writer.open(path, &error));
+  loop_event_t e{};
+  e.event_id = 1;
+  e.status = loop_event_t::STATUS_ACCEPTED;
+  e.stage = "accepted";
+  e.query_session = loop_query.session;
+  e.query_id = loop_query.index;
+  e.match_session = 0;
+  e.match_id = 3;
+  to_row_major(Eigen::Isometry3d::Identity(), e.T_match_query);
+  REQUIRE(writer.write_message(channels::kLoopEvent, 1, e));
+  trajectory_t t{};
+  t.revision = 1;
+  t.full = true;
+  t.method = "graph";
+  for (const auto& [session, x] : {std::pair<std::int32_t, double>{0, 0.0}, {1, x_1_5}}) {
+    keyframe_pose_t k{};
+    k.id = 5;
+    k.position[0] = x;
+    k.orientation[0] = 1.0;
+    t.keyframes.push_back(k);
+    t.keyframe_sessions.push_back(session);
+  }
+  t.num_keyframes = 2;
+  t.total_keyframes = 2;
+  REQUIRE(writer.write_message(channels::kTrajectory, 2, t));
+  writer.close();
+}
+
+}  // namespace
+
+TEST_CASE("loopd-compare: keyframes and loops are named by (session, id), so two sessions' equal ids are not mixed up") {
+  const fs::path dir = fs::temp_directory_path() / ("loopd_test_compare_sessions_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string a = (dir / "a.lcmlog").string(), same = (dir / "same.lcmlog").string(), moved = (dir / "moved.lcmlog").string(),
+                    other = (dir / "other.lcmlog").string();
+  write_two_session_log(a, {1, 5}, 10.0);
+  write_two_session_log(same, {1, 5}, 10.0);
+  write_two_session_log(moved, {1, 5}, 11.0);  // keyframe 1/5 one metre on; 0/5 (the same id) where it was
+  write_two_session_log(other, {2, 5}, 10.0);  // the loop from keyframe 5 of session 2, not of session 1
+  int rc = -1;
+  nlohmann::json j = compare(a, same, &rc);
+  CHECK(rc == 0);
+  CHECK(j["identical"] == true);
+  j = compare(a, moved, &rc);
+  CHECK(rc == 1);
+  CHECK(j["max_pose_translation_diff_m"].get<double>() == Approx(1.0));
+  CHECK(j["accepted_both"] == 1);
+  j = compare(a, other, &rc);
+  CHECK(rc == 1);
+  CHECK(j["accepted_both"] == 0);
+  CHECK(j["accepted_only_a_pairs"] == nlohmann::json::array({{1, 5, 0, 3}}));
+  CHECK(j["accepted_only_b_pairs"] == nlohmann::json::array({{2, 5, 0, 3}}));
+  CHECK(j["max_pose_translation_diff_m"].get<double>() == 0.0);
   fs::remove_all(dir);
 }

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "loopd/core/deskew.hpp"
+#include "loopd/base/deskew.hpp"
 #include "loopd/eval/map_quality.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/io/cloud_writer.hpp"

@@ -13,7 +13,7 @@
 
 #include "loopd/eval/evaluation.hpp"
 
-#if 1  // LCM types and lcm_log.hpp are always linked (loopd_bridge)
+#if 1  // LCM types and lcm_log.hpp are always linked (loopd_lcm)
 #define LOOPD_EVAL_TEST_HAS_LCM 1
 #include <loopd/loop_event_t.hpp>
 #include <loopd/trajectory_t.hpp>
@@ -79,7 +79,7 @@ EvalInput build_input() {
   }
   std::int64_t id = 0;
   for (const auto& h : kLoops) {
-    LoopRecord r;
+    LoopDecision r;
     r.event_id = id++;
     r.query_utime = utime_of(h.query);
     r.match_utime = utime_of(h.match);
@@ -460,5 +460,5 @@ TEST_CASE("loopd-eval binary: two drives and two results logs of a two-session m
     fs::remove_all(dir);
 }
 #else
-TEST_CASE("loopd-eval binary (skipped: test not linked to loopd_bridge)") { WARN("skipped: no LCM headers"); }
+TEST_CASE("loopd-eval binary (skipped: test not linked to loopd_lcm)") { WARN("skipped: no LCM headers"); }
 #endif

@@ -14,7 +14,7 @@
 #include <loopd/trajectory_t.hpp>
 
 #include "lcm_log.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "message_convert.hpp"
 #include "support/run_command.hpp"
 

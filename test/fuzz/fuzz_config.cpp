@@ -1,6 +1,6 @@
 // The daemon's YAML config: any text loads or fails with an error (never an exception); an accepted config dumps
 // (--print-config) to YAML that loads back to the same dump.
-#include "daemon_config.hpp"
+#include "loopd/runtime/daemon_config.hpp"
 #include "fuzz_support.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

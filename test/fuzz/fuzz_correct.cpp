@@ -5,7 +5,7 @@
 
 #include "fuzz_support.hpp"
 #include "loopd/correction/loop_corrector.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "loopd/correction/loop_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -1,7 +1,7 @@
 // The map store's keyframe codec: untrusted bytes are refused with a reason (never a crash, never an allocation the
 // bytes cannot back), or decode to features that encode and decode again to the same blob.
 #include "fuzz_support.hpp"
-#include "loopd/map/keyframe_codec.hpp"
+#include "loopd/store/keyframe_codec.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace loopd;

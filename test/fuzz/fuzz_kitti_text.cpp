@@ -1,7 +1,7 @@
 // KITTI text files read by kitti2lcm and loopd-eval: poses (read_trajectory kKitti, 12 numbers a line), times.txt
 // and calib.txt ("Tr:"). Each reader takes a path, so the input goes through a temp file.
 #include "fuzz_support.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "loopd/io/kitti_files.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

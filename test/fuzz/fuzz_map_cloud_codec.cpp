@@ -1,7 +1,7 @@
 // The map cloud codec: untrusted bytes are refused with a reason (never a crash, never an allocation the header, checked
 // against the bytes, does not allow), or decode to a cloud that encodes and decodes again to the same points.
 #include "fuzz_support.hpp"
-#include "loopd/map/map_cloud_codec.hpp"
+#include "loopd/store/map_cloud_codec.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace loopd;

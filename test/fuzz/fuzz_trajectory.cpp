@@ -3,7 +3,7 @@
 #include <sstream>
 
 #include "fuzz_support.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace loopd;

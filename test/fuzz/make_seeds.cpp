@@ -9,9 +9,9 @@
 #include <iostream>
 #include <sstream>
 
-#include "daemon_config.hpp"
+#include "loopd/runtime/daemon_config.hpp"
 #include "lcm_log.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "message_convert.hpp"
 

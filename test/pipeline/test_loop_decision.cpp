@@ -2,8 +2,8 @@
 // every field carried, the information kept in loopd's one (t, r) order.
 #include <catch2/catch.hpp>
 
-#include "loopd/core/information.hpp"
-#include "loopd/pipeline/loop_decision.hpp"
+#include "loopd/base/information.hpp"
+#include "loopd/pipeline/verification_decision.hpp"
 
 using namespace loopd;
 

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <random>
 
-#include "loopd/core/lidar_model.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/lidar_model.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/pipeline/register_scans.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"

@@ -5,8 +5,8 @@
 #include <fstream>
 #include <string>
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/pipeline/register_scans.hpp"

@@ -7,8 +7,8 @@
 #include <string>
 #include <unistd.h>
 
-#include "loopd/core/lidar_model.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/lidar_model.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"

@@ -7,8 +7,8 @@
 #include <limits>
 #include <random>
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/registration/gicp.hpp"

@@ -5,7 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
-#include "loopd/core/pose.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/pipeline/loop_detector.hpp"
 #include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/registration/keyframe_step.hpp"

@@ -7,9 +7,9 @@
 #include <cmath>
 #include <vector>
 
-#include "loopd/core/deskew.hpp"
-#include "loopd/core/kdtree.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/deskew.hpp"
+#include "loopd/base/kdtree.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/registration/sweep_motion.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"

@@ -2,7 +2,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "loopd/core/lidar_model.hpp"
+#include "loopd/base/lidar_model.hpp"
 #include "loopd/segmentation/segmentation.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"

@@ -3,8 +3,8 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/kdtree.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/kdtree.hpp"
 #include "loopd/sim/drive.hpp"
 
 namespace {

@@ -3,9 +3,9 @@
 #include <cmath>
 #include <cstring>
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/kdtree.hpp"
-#include "loopd/core/lidar_model.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/kdtree.hpp"
+#include "loopd/base/lidar_model.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
 

@@ -3,8 +3,8 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "loopd/core/lidar_model.hpp"
-#include "loopd/core/sensor_estimate.hpp"
+#include "loopd/base/lidar_model.hpp"
+#include "loopd/base/sensor_estimate.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/scan_pattern.hpp"
 #include "loopd/sim/town.hpp"

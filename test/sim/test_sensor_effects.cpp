@@ -6,8 +6,8 @@
 #include <map>
 #include <tuple>
 
-#include "loopd/core/kdtree.hpp"
-#include "loopd/core/lidar_model.hpp"
+#include "loopd/base/kdtree.hpp"
+#include "loopd/base/lidar_model.hpp"
 #include "loopd/sim/drive.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"

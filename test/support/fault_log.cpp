@@ -7,7 +7,7 @@
 #include <loopd/pose_t.hpp>
 
 #include "lcm_log.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/pose.hpp"
 #include "message_convert.hpp"
 
 namespace loopd::test {

@@ -1,6 +1,6 @@
 #include <catch2/catch.hpp>
 
-#include "loopd/core/pose.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/verify/cluster_consistency.hpp"
 
 using namespace loopd;

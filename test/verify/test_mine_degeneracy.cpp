@@ -5,7 +5,7 @@
 #include <string>
 #include <tuple>
 
-#include "loopd/core/lidar_model.hpp"
+#include "loopd/base/lidar_model.hpp"
 #include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/mine.hpp"

@@ -8,10 +8,10 @@
 #include <sstream>
 #include <tuple>
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/lidar_model.hpp"
-#include "loopd/core/pose.hpp"
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/lidar_model.hpp"
+#include "loopd/base/pose.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/sim/lidar_sim.hpp"

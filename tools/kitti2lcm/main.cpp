@@ -7,9 +7,9 @@
 #include <iostream>
 
 #include "lcm_log.hpp"
-#include "loopd/core/lidar_model.hpp"
+#include "loopd/base/lidar_model.hpp"
 #include "loopd/eval/odometry_drift.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/io/kitti_files.hpp"
 #include "message_convert.hpp"

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <iostream>
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/correction/loop_corrector.hpp"
 #include "loopd/correction/pose_graph.hpp"
 #include "loopd/correction/trajectory_tools.hpp"

@@ -5,8 +5,8 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
-#include "loopd/core/deskew.hpp"
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/deskew.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/sim/drive.hpp"
 #include "tool_output.hpp"
 #include "exit_codes.hpp"

@@ -12,10 +12,10 @@
 #include <random>
 #include <sstream>
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/lidar_model.hpp"
-#include "loopd/core/pose.hpp"
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/lidar_model.hpp"
+#include "loopd/base/pose.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/registration/gicp.hpp"

@@ -5,8 +5,8 @@
 #include <iostream>
 #include <random>
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/descriptor/m2dp.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "tool_output.hpp"

@@ -9,11 +9,13 @@
 #include <random>
 #include <thread>
 
-#include "loopd/map/keyframe_codec.hpp"
-#include "loopd/map/map_cloud_codec.hpp"
-#include "loopd/map/map_store.hpp"
+#include "loopd/store/keyframe_codec.hpp"
+#include "loopd/store/map_cloud_codec.hpp"
+#include "loopd/store/map_store.hpp"
+#include "loopd/records/vehicle_sessions.hpp"
 #include "tool_output.hpp"
 #include "exit_codes.hpp"
+#include "loopd/store/store_uri.hpp"
 
 using namespace loopd;
 
@@ -159,7 +161,7 @@ int run_bench_map_writes(int argc, char** argv) {
   app.add_flag("--json", json, "one JSON object as the last stdout line");
   if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
   config.uri = uri;
-  const bool postgres = uri.rfind("postgresql://", 0) == 0 || uri.rfind("postgres://", 0) == 0;
+  const bool postgres = names_shared_map(uri);
   if (!postgres && writers > 1) {
     std::cerr << "loopd-bench map-writes: an SQLite map has one writer (--writers 1)\n";
     return 2;

@@ -12,7 +12,7 @@
 #include <thread>
 
 #include "lcm_log.hpp"
-#include "loopd_engine.hpp"
+#include "loopd/runtime/loopd_engine.hpp"
 #include "message_convert.hpp"
 #include "tool_output.hpp"
 #include "exit_codes.hpp"

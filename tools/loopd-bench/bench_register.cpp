@@ -21,9 +21,9 @@
 #include <iostream>
 #include <sstream>
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/lidar_model.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/lidar_model.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/io/kitti_files.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/pipeline/register_scans.hpp"

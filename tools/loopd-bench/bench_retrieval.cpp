@@ -5,7 +5,7 @@
 #include <iostream>
 #include <random>
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/descriptor/scan_context.hpp"
 #include "loopd/retrieval/place_index.hpp"
 #include "loopd/sim/drive.hpp"

@@ -5,9 +5,9 @@
 #include <ctime>
 #include <iostream>
 
-#include "loopd/core/lidar_model.hpp"
-#include "loopd/core/pose.hpp"
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/lidar_model.hpp"
+#include "loopd/base/pose.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
 #include "loopd/pipeline/prepare_scan.hpp"

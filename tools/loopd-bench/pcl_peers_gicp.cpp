@@ -1,7 +1,7 @@
 // The only translation unit with PCL headers for the GICP peer (see pcl_peers_gicp.hpp).
 #include "pcl_peers_gicp.hpp"
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 
 #ifdef LOOPD_WITH_PCL
 #include <pcl/registration/gicp.h>

@@ -3,7 +3,7 @@
 
 #include <ctime>
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 
 #ifdef LOOPD_WITH_PCL
 #include <pcl/registration/ia_fpcs.h>

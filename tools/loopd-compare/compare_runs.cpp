@@ -8,9 +8,6 @@
 namespace loopd::tools {
 namespace {
 
-constexpr std::int8_t kStatusAccepted = 1;  // loop_event_t::STATUS_ACCEPTED (this file has no LCM)
-constexpr std::int8_t kStatusRejected = 2;  // loop_event_t::STATUS_REJECTED
-
 /// Every decision about one loop pair, in log order.
 struct PairDecisions {
   std::vector<std::string> decisions;  ///< "status/stage"
@@ -22,9 +19,9 @@ using DecisionsByPair = std::map<LoopPair, PairDecisions>;
 DecisionsByPair group_by_pair(const std::vector<LoopDecision>& decisions) {
   DecisionsByPair out;
   for (const auto& d : decisions) {
-    PairDecisions& p = out[{d.query_id, d.match_id}];
-    p.decisions.push_back(status_name(d.status) + "/" + d.stage);
-    if (d.status == kStatusAccepted && p.first_accepted == nullptr) p.first_accepted = &d;
+    PairDecisions& p = out[{d.query, d.match}];
+    p.decisions.push_back(to_string(d.status) + "/" + d.stage);
+    if (d.accepted() && p.first_accepted == nullptr) p.first_accepted = &d;
   }
   return out;
 }
@@ -87,15 +84,15 @@ TrajectoryComparison compare_trajectories(const RunLog& a, const RunLog& b) {
   out.revisions_b = b.revisions;
   out.last_revision_a = a.last_revision;
   out.last_revision_b = b.last_revision;
-  out.same_keyframe_ids =
-      a.trajectory.size() == b.trajectory.size() && std::equal(a.trajectory.begin(), a.trajectory.end(), b.trajectory.begin(),
-                                                               [](const KeyframeRecord& x, const KeyframeRecord& y) { return x.id == y.id; });
-  std::unordered_map<std::int64_t, const KeyframeRecord*> b_by_id;
-  for (const auto& k : b.trajectory) b_by_id.emplace(k.id, &k);
+  out.same_keyframe_ids = a.trajectory.size() == b.trajectory.size() &&
+                          std::equal(a.trajectory.begin(), a.trajectory.end(), b.trajectory.begin(),
+                                     [](const TrajectoryPose& x, const TrajectoryPose& y) { return x.session == y.session && x.id == y.id; });
+  std::map<KeyframeKey, const TrajectoryPose*> b_by_key;
+  for (const auto& k : b.trajectory) b_by_key.emplace(KeyframeKey{k.session, k.id}, &k);
   for (const auto& ka : a.trajectory) {
-    const auto it = b_by_id.find(ka.id);
-    if (it == b_by_id.end()) continue;
-    const KeyframeRecord& kb = *it->second;
+    const auto it = b_by_key.find(KeyframeKey{ka.session, ka.id});
+    if (it == b_by_key.end()) continue;
+    const TrajectoryPose& kb = *it->second;
     ++out.keyframes_both;
     out.max_pose_translation_diff_m = max_keeping_nan(out.max_pose_translation_diff_m, (ka.position - kb.position).norm());
     out.max_pose_rotation_diff_deg = max_keeping_nan(out.max_pose_rotation_diff_deg, rotation_difference_deg(ka.orientation, kb.orientation));
@@ -111,12 +108,6 @@ double rotation_difference_deg(const Eigen::Quaterniond& a, const Eigen::Quatern
   const Eigen::Quaterniond d = a.normalized().conjugate() * b.normalized();
   // 2 atan2(|v|, |w|): the smaller of the two angles q and -q stand for, exact near zero (acos of the trace is not).
   return 2.0 * std::atan2(d.vec().norm(), std::abs(d.w())) * 180.0 / M_PI;
-}
-
-std::string status_name(std::int8_t status) {
-  if (status == kStatusAccepted) return "accepted";
-  if (status == kStatusRejected) return "rejected";
-  return "candidate";
 }
 
 RunComparison compare_runs(const RunLog& a, const RunLog& b, const CompareTolerances& tolerances) {

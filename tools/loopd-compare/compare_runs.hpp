@@ -14,8 +14,8 @@ struct CompareTolerances {
   double rotation_deg = 1e-6;   ///< [deg] loop transforms and keyframe orientations
 };
 
-/// @brief A loop: (query keyframe id, match keyframe id).
-using LoopPair = std::pair<std::int64_t, std::int64_t>;
+/// @brief A loop: (query keyframe, match keyframe), each named by (session, id).
+using LoopPair = std::pair<KeyframeKey, KeyframeKey>;
 
 /// @brief A loop pair that both runs decided, differently (status or stage, or number of decisions).
 struct DecisionDifference {
@@ -36,10 +36,10 @@ struct DecisionComparison {
   double max_loop_rotation_diff_deg = 0;                   ///< ... and rotation
 };
 
-/// @brief The last corrected trajectories of two runs side by side, keyframes matched by id.
+/// @brief The last corrected trajectories of two runs side by side, keyframes matched by (session, id).
 struct TrajectoryComparison {
   std::int64_t keyframes_a = 0, keyframes_b = 0, keyframes_both = 0;
-  bool same_keyframe_ids = true;  ///< the same ids in the same order
+  bool same_keyframe_ids = true;  ///< the same (session, id) keys in the same order
   std::int64_t revisions_a = 0, revisions_b = 0;
   std::int64_t last_revision_a = -1, last_revision_b = -1;
   double max_pose_translation_diff_m = 0;  ///< over keyframes both have
@@ -58,8 +58,5 @@ RunComparison compare_runs(const RunLog& a, const RunLog& b, const CompareTolera
 
 /// @brief Rotation angle between two orientations [deg], accurate for tiny angles (atan2 of the quaternion parts).
 double rotation_difference_deg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b);
-
-/// @brief "accepted", "rejected" or "candidate" for a loop_event_t status.
-std::string status_name(std::int8_t status);
 
 }  // namespace loopd::tools

@@ -22,7 +22,16 @@ std::string sci(double v) {
   return buf;
 }
 
-std::string pair_text(const LoopPair& p) { return std::to_string(p.first) + "->" + std::to_string(p.second); }
+/// A keyframe as "17" in session 0 (single-session runs read as before), else "session/id".
+std::string key_text(const loopd::KeyframeKey& k) { return k.session == 0 ? std::to_string(k.index) : loopd::to_string(k); }
+
+std::string pair_text(const LoopPair& p) { return key_text(p.first) + "->" + key_text(p.second); }
+
+/// [query id, match id] when both are of session 0, else [query session, query id, match session, match id].
+nlohmann::json pair_json(const LoopPair& p) {
+  if (p.first.session == 0 && p.second.session == 0) return {p.first.index, p.second.index};
+  return {p.first.session, p.first.index, p.second.session, p.second.index};
+}
 
 std::string pairs_text(const std::vector<LoopPair>& pairs) {
   std::string s;
@@ -33,7 +42,7 @@ std::string pairs_text(const std::vector<LoopPair>& pairs) {
 
 nlohmann::json pairs_json(const std::vector<LoopPair>& pairs) {
   nlohmann::json j = nlohmann::json::array();
-  for (std::size_t i = 0; i < pairs.size() && i < kJsonPairs; ++i) j.push_back({pairs[i].first, pairs[i].second});
+  for (std::size_t i = 0; i < pairs.size() && i < kJsonPairs; ++i) j.push_back(pair_json(pairs[i]));
   return j;
 }
 
@@ -80,7 +89,12 @@ nlohmann::json result_json(const RunComparison& c, const RunLog& a, const RunLog
   nlohmann::json differ = nlohmann::json::array();
   for (std::size_t i = 0; i < l.decisions_differ.size() && i < kJsonPairs; ++i) {
     const DecisionDifference& d = l.decisions_differ[i];
-    differ.push_back({{"query_id", d.pair.first}, {"match_id", d.pair.second}, {"a", d.decisions_a}, {"b", d.decisions_b}});
+    differ.push_back({{"query_id", d.pair.first.index},
+                      {"match_id", d.pair.second.index},
+                      {"query_session", d.pair.first.session},
+                      {"match_session", d.pair.second.session},
+                      {"a", d.decisions_a},
+                      {"b", d.decisions_b}});
   }
   return {{"events_a", l.events_a},
           {"events_b", l.events_b},

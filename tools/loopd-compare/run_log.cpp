@@ -5,28 +5,20 @@
 #include <loopd/trajectory_t.hpp>
 
 #include "lcm_log.hpp"
+#include "loop_event_convert.hpp"
 #include "trajectory_assembly.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/pose.hpp"
 
 namespace loopd::tools {
 namespace {
 
-LoopDecision decision_of(const loop_event_t& msg) {
-  LoopDecision d;
-  d.event_id = msg.event_id;
-  d.query_id = msg.query_id;
-  d.match_id = msg.match_id;
-  d.status = msg.status;
-  d.stage = msg.stage;
-  d.T_match_query = from_row_major(msg.T_match_query);
-  return d;
-}
-
-std::vector<KeyframeRecord> keyframes_of(const trajectory_t& msg) {
-  std::vector<KeyframeRecord> out;
+std::vector<TrajectoryPose> keyframes_of(const trajectory_t& msg) {
+  std::vector<TrajectoryPose> out;
   out.reserve(msg.keyframes.size());
-  for (const auto& k : msg.keyframes) {
-    KeyframeRecord r;
+  for (std::size_t i = 0; i < msg.keyframes.size(); ++i) {
+    const keyframe_pose_t& k = msg.keyframes[i];
+    TrajectoryPose r;
+    r.session = i < msg.keyframe_sessions.size() ? msg.keyframe_sessions[i] : 0;  // 0 in logs before sessions
     r.id = k.id;
     r.position = Eigen::Vector3d(k.position[0], k.position[1], k.position[2]);
     r.orientation = Eigen::Quaterniond(k.orientation[0], k.orientation[1], k.orientation[2], k.orientation[3]);
@@ -53,12 +45,12 @@ bool read_run_log(const std::string& path, const CompareChannels& channels, RunL
   while (reader.next(&ev)) {
     ++run->events;
     if (ev.channel == channels.loop_event) {
-      if (!LogReader::decode(ev, &loop_msg, &why)) {
+      LoopDecision d;
+      if (!LogReader::decode(ev, &loop_msg, &why) || !from_message(loop_msg, &d, &why)) {
         note_malformed(run, ev.channel, why);
         continue;
       }
       // An event_id seen again replaces the earlier event (lcmtypes/loop_event_t.lcm: keyed by event_id, keep the last).
-      LoopDecision d = decision_of(loop_msg);
       const auto seen = event_index.find(d.event_id);
       if (seen != event_index.end()) {
         run->decisions[seen->second] = std::move(d);

@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "loopd/records/loop_decision.hpp"
+
 namespace loopd::tools {
 
 /// @brief Channel names read by loopd-compare.
@@ -12,18 +14,9 @@ struct CompareChannels {
   std::string trajectory = "CORRECTED_TRAJECTORY";
 };
 
-/// @brief One loop decision of a run (loop_event_t without its timing fields and publication utime).
-struct LoopDecision {
-  std::int64_t event_id = 0;
-  std::int64_t query_id = 0;
-  std::int64_t match_id = 0;
-  std::int8_t status = 0;  ///< loop_event_t::STATUS_*
-  std::string stage;
-  Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
-};
-
 /// @brief One keyframe of a corrected trajectory.
-struct KeyframeRecord {
+struct TrajectoryPose {
+  std::int32_t session = 0;  ///< a keyframe is named by (session, id)
   std::int64_t id = 0;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< [m]
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
@@ -31,8 +24,8 @@ struct KeyframeRecord {
 
 /// @brief What loopd-compare takes from one loopd output log.
 struct RunLog {
-  std::vector<LoopDecision> decisions;     ///< every loop event, in log order
-  std::vector<KeyframeRecord> trajectory;  ///< the LAST corrected trajectory revision (partial messages applied on
+  std::vector<LoopDecision> decisions;     ///< every loop event, in log order (timing fields ignored)
+  std::vector<TrajectoryPose> trajectory;  ///< the LAST corrected trajectory revision (partial messages applied on
                                            ///< top of the last full one), oldest keyframe first
   std::int64_t revisions = 0;              ///< corrected trajectory revisions in the log (a repeated revision counts once)
   std::int64_t last_revision = -1;         ///< revision number of `trajectory`, -1 when there is none

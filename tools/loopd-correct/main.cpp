@@ -4,9 +4,9 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/correction/loop_corrector.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "loopd/correction/loop_file.hpp"
 #include "loopd/correction/trajectory_tools.hpp"
 #include "tool_output.hpp"

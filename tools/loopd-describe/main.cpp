@@ -2,8 +2,8 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/descriptor/m2dp.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "tool_output.hpp"

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <filesystem>
 #include <loopd/loop_event_t.hpp>
+
+#include "loop_event_convert.hpp"
 #include <unordered_map>
 #include <loopd/point_cloud_t.hpp>
 #include <loopd/pose_t.hpp>
@@ -111,23 +113,11 @@ bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput
         ++stats->malformed;
         continue;
       }
-      LoopRecord r;
-      r.event_id = loop_msg.event_id;
-      r.query_utime = loop_msg.query_utime;
-      r.match_utime = loop_msg.match_utime;
-      r.query_session = loop_msg.query_session;
-      r.match_session = loop_msg.match_session;
-      r.status = loop_msg.status == loop_event_t::STATUS_ACCEPTED   ? LoopStatus::kAccepted
-                 : loop_msg.status == loop_event_t::STATUS_REJECTED ? LoopStatus::kRejected
-                                                                    : LoopStatus::kCandidate;
-      r.stage = loop_msg.stage;
-      r.descriptor_distance = loop_msg.descriptor_distance;
-      r.T_match_query = from_row_major(loop_msg.T_match_query);
-      r.ms_descriptor = loop_msg.ms_descriptor;
-      r.ms_fourpcs = loop_msg.ms_fourpcs;
-      r.ms_gicp = loop_msg.ms_gicp;
-      r.ms_hungarian = loop_msg.ms_hungarian;
-      r.ms_total = loop_msg.ms_total;
+      LoopDecision r;
+      if (!from_message(loop_msg, &r, nullptr)) {
+        ++stats->malformed;
+        continue;
+      }
       // An event_id seen again replaces the earlier event (lcmtypes/loop_event_t.lcm: keyed by event_id, keep the last).
       const auto seen = event_index.find(r.event_id);
       if (seen != event_index.end()) {

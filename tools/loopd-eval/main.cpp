@@ -9,7 +9,7 @@
 #include "eval_log.hpp"
 #include "map_eval.hpp"
 #include "loopd/eval/evaluation.hpp"
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "plots.hpp"
 #include "tool_output.hpp"
 #include "exit_codes.hpp"
@@ -72,7 +72,7 @@ bool export_loop_errors(const std::string& path, const EvalInput& input, const E
   out << "event_id,query_utime,match_utime,query_keyframe,match_keyframe,frame_gap,gt_distance_m,translation_error_m,rotation_error_deg,correct\n";
   out.precision(9);
   for (const LoopCheck& c : rep.checks) {
-    const LoopRecord& l = input.loops[c.loop];
+    const LoopDecision& l = input.loops[c.loop];
     if (!c.has_ground_truth || l.status != LoopStatus::kAccepted) continue;
     out << l.event_id << ',' << l.query_utime << ',' << l.match_utime << ',' << c.query_keyframe << ',' << c.match_keyframe << ',' << c.frame_gap
         << ',' << c.gt_distance << ',' << c.translation_error << ',' << c.rotation_error_deg << ',' << (c.correct ? 1 : 0) << '\n';

@@ -8,7 +8,7 @@
 #include <unordered_set>
 
 #include "lcm_log.hpp"
-#include "loopd/core/deskew.hpp"
+#include "loopd/base/deskew.hpp"
 #include "loopd/eval/pose_error.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/io/file_bytes.hpp"

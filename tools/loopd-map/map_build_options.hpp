@@ -3,7 +3,7 @@
 #include <optional>
 #include <string>
 
-#include "loopd/mapping/map_builder.hpp"
+#include "loopd/map3d/map_builder.hpp"
 #include "map_poses.hpp"
 
 namespace loopd::tools {

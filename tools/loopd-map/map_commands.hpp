@@ -3,7 +3,7 @@
 /// the last stdout line; each returns the tool's exit status.
 #include <string>
 
-#include "loopd/map/map_store.hpp"
+#include "loopd/store/map_store.hpp"
 
 namespace loopd::tools {
 

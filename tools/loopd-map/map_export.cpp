@@ -1,5 +1,5 @@
 // loopd-map export-cloud / export-octomap: the corrected 3D map (or the odometry one) built from the map's keyframe
-// clouds (src/loopd/mapping/map_builder.hpp), written as .pcd / .ply or as an OctoMap .bt.
+// clouds (src/loopd/map3d/map_builder.hpp), written as .pcd / .ply or as an OctoMap .bt.
 #include <chrono>
 #include <filesystem>
 #include <iostream>

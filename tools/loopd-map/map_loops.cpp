@@ -10,22 +10,20 @@ namespace {
 /// @brief A score column: "-" when the stage did not compute it (stored as a negative value).
 std::string score(double v) { return v < 0.0 ? "-" : fmt(v, 3); }
 
-std::string status_name(int status) { return status == 1 ? "accepted" : status == 2 ? "rejected" : "status " + std::to_string(status); }
-
-void add_row(Table& table, const LoopRecord& r) {
+void add_row(Table& table, const LoopDecision& r) {
   const Eigen::Vector3d t = r.T_match_query.translation();
-  table.add({std::to_string(r.event_id), to_string(r.query), to_string(r.match), status_name(r.status), r.stage, score(r.descriptor_distance),
+  table.add({std::to_string(r.event_id), to_string(r.query), to_string(r.match), to_string(r.status), r.stage, score(r.descriptor_distance),
              score(r.lcp_fraction), score(r.icp_residual), score(r.icp_fitness), fmt(t.x(), 3) + " " + fmt(t.y(), 3) + " " + fmt(t.z(), 3)});
 }
 
-nlohmann::json loop_json(const LoopRecord& r) {
+nlohmann::json loop_json(const LoopDecision& r) {
   const Eigen::Vector3d t = r.T_match_query.translation();
   return {{"event_id", r.event_id},
           {"query", to_string(r.query)},
           {"match", to_string(r.match)},
           {"query_utime", r.query_utime},
           {"match_utime", r.match_utime},
-          {"status", status_name(r.status)},
+          {"status", to_string(r.status)},
           {"stage", r.stage},
           {"reason", r.reason},
           {"gate_distance", r.gate_distance},
@@ -44,10 +42,10 @@ int run_loops(MapStore& store, bool all, const CommandOptions& options) {
   Table table({"event", "query", "match", "status", "stage", "descriptor", "lcp", "icp residual [m]", "icp fitness", "T_match_query t [m]"});
   nlohmann::json list = nlohmann::json::array();
   std::int64_t accepted = 0, rejected = 0;
-  const StoreStatus read = store.for_each_loop(!all, [&](LoopRecord&& r) {
+  const StoreStatus read = store.for_each_loop(!all, [&](LoopDecision&& r) {
     add_row(table, r);
     if (options.json) list.push_back(loop_json(r));
-    ++(r.status == 1 ? accepted : rejected);
+    ++(r.accepted() ? accepted : rejected);
   });
   if (!read.ok()) {
     std::cerr << "loopd-map: " << read.message << "\n";

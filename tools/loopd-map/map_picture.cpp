@@ -11,7 +11,7 @@
 #include <map>
 #include <unistd.h>
 
-#include "loopd/core/cloud_ops.hpp"
+#include "loopd/base/cloud_ops.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "map_build_options.hpp"
 #include "map_commands.hpp"
@@ -91,7 +91,7 @@ std::size_t write_overlays(MapStore& store, const KeyframePoses& poses, const st
   }
   std::ofstream loops(dir + "/loops.dat");
   std::size_t n = 0;
-  store.for_each_loop(true, [&](LoopRecord&& l) {
+  store.for_each_loop(true, [&](LoopDecision&& l) {
     const auto q = at.find(l.query), m = at.find(l.match);
     if (q == at.end() || m == at.end()) return;
     loops << q->second.x() << ' ' << q->second.y() << '\n' << m->second.x() << ' ' << m->second.y() << "\n\n";

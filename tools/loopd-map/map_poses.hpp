@@ -6,7 +6,7 @@
 #include <optional>
 #include <vector>
 
-#include "loopd/map/map_store.hpp"
+#include "loopd/store/map_store.hpp"
 
 namespace loopd::tools {
 

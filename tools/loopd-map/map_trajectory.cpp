@@ -4,7 +4,7 @@
 #include <iostream>
 #include <unistd.h>
 
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 #include "map_commands.hpp"
 #include "map_poses.hpp"
 #include "tool_output.hpp"

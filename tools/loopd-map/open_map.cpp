@@ -1,12 +1,12 @@
 #include "open_map.hpp"
 
+#include "loopd/store/store_uri.hpp"
+
 #include <sys/stat.h>
 
 namespace loopd::tools {
 
 namespace {
-
-bool names_postgres(const std::string& uri) { return uri.rfind("postgresql://", 0) == 0 || uri.rfind("postgres://", 0) == 0; }
 
 /// @brief The whole fleet's map on a PostgreSQL server (unscoped: every vehicle), in read-only transactions.
 ReadOnlyMap open_postgres_read_only(const std::string& uri) {
@@ -25,10 +25,11 @@ ReadOnlyMap open_postgres_read_only(const std::string& uri) {
 }  // namespace
 
 ReadOnlyMap open_map_read_only(const std::string& path) {
-  if (names_postgres(path)) return open_postgres_read_only(path);
+  const StoreUri uri = parse_store_uri(path);
+  if (names_shared_map(path)) return open_postgres_read_only(path);
   ReadOnlyMap out;
-  const std::string file = path.rfind("sqlite://", 0) == 0 ? path.substr(9) : path;
-  if (file.empty() || file == "sqlite::memory:" || (path.find("://") != std::string::npos && path.rfind("sqlite://", 0) != 0)) {
+  const std::string& file = uri.location;
+  if (!uri.is_file()) {
     out.error = "map " + path + ": expected a map file (FILE or sqlite://FILE) or postgresql://...";
     return out;
   }

@@ -3,7 +3,7 @@
 #include <memory>
 #include <string>
 
-#include "loopd/map/map_store.hpp"
+#include "loopd/store/map_store.hpp"
 
 namespace loopd::tools {
 

@@ -3,10 +3,10 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
-#include "daemon_config.hpp"
-#include "loopd/core/lidar_model.hpp"
-#include "loopd/core/sensor_estimate.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/runtime/daemon_config.hpp"
+#include "loopd/base/lidar_model.hpp"
+#include "loopd/base/sensor_estimate.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/pipeline/register_scans.hpp"
 #include "tool_output.hpp"

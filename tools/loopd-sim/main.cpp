@@ -10,7 +10,7 @@
 #include <optional>
 #include <thread>
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/sim/drive.hpp"
 #include "loopd/sim/movers.hpp"
 #include "lcm_log.hpp"

@@ -3,11 +3,11 @@
 #include <iostream>
 #include <optional>
 
-#include "daemon_config.hpp"
-#include "loopd/core/lidar_model.hpp"
-#include "loopd/core/scene_scale.hpp"
-#include "loopd/core/sensor_estimate.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/runtime/daemon_config.hpp"
+#include "loopd/base/lidar_model.hpp"
+#include "loopd/base/scene_scale.hpp"
+#include "loopd/base/sensor_estimate.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/io/cloud_file.hpp"
 #include "loopd/pipeline/loop_detector.hpp"
 #include "loopd/pipeline/prepare_scan.hpp"
@@ -55,7 +55,7 @@ void print_json(const Outcome& o) {
   j["ms"] = {{"fourpcs", r.ms_fourpcs},         {"gicp", r.ms_gicp},
              {"hungarian", r.ms_hungarian},     {"total", r.ms_total},
              {"prepare_query", query.ms_total}, {"prepare_match", match.ms_total}};
-  std::vector<double> info(r.information.data(), r.information.data() + 36);  // (t, r) order, core/information.hpp
+  std::vector<double> info(r.information.data(), r.information.data() + 36);  // (t, r) order, base/information.hpp
   j["information"] = info;
   j["points"] = {{"query", query.points.size()}, {"match", match.points.size()}};
   j["sensor"] = {{"choice", o.sensor}, {"query", o.query_seen.describe()}, {"match", o.match_seen.describe()}};

@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "loopd/core/information.hpp"
+#include "loopd/base/information.hpp"
 
 namespace loopd {
 
@@ -25,7 +25,7 @@ struct LoopConstraint {
   PoseIndex match_index = -1;  ///< position of the match keyframe in that sequence
   Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
   /// Information of T_match_query, e.g. the GICP Hessian (Ren 2019, Sec. 3.4.1), in loopd's one order
-  /// (core/information.hpp). All zero = unknown (the pose graph then uses PoseGraphConfig::loop_translation_sigma /
+  /// (base/information.hpp). All zero = unknown (the pose graph then uses PoseGraphConfig::loop_translation_sigma /
   /// loop_rotation_sigma).
   Information6d information = Information6d::Zero();
   /// false: the pose graph takes this loop without its robust kernel (a loop already proven an inlier, e.g. confirmed

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/correction/trajectory_tools.hpp"
 
 namespace loopd {

@@ -88,7 +88,7 @@ class LoopCorrector {
   /// @brief Appends a keyframe (odometry pose T_odom_sensor and the residual of the step ending at it, 0 = unknown).
   /// Its corrected pose is T_map_odom() * T_odom_sensor. Returns its index.
   PoseIndex add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual = 0.0);
-  /// @brief Same, with the information (core/information.hpp) of the odometry step ending here (e.g. from the covariance in
+  /// @brief Same, with the information (base/information.hpp) of the odometry step ending here (e.g. from the covariance in
   /// pose_t); the graph then uses it instead of the residual-based sigma for that edge. Zero = unknown.
   PoseIndex add_keyframe(const Eigen::Isometry3d& T_odom_sensor, double residual, const Information6d& step_information);
   /// @brief Same, with the step from the previous keyframe measured by the scans (registration/keyframe_step.hpp):

@@ -5,7 +5,7 @@
 #include <limits>
 #include <optional>
 
-#include "loopd/core/number_lines.hpp"
+#include "loopd/base/number_lines.hpp"
 
 namespace loopd {
 

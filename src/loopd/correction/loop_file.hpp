@@ -1,7 +1,7 @@
 #pragma once
 // Text formats for offline correction (tools/loopd-correct): loops and residuals, with the line rules of
-// core/number_lines.hpp (blank and '#' lines skipped; errors "<source>:<line>: <reason>"). Trajectories (KITTI / TUM)
-// are read and written by loopd/core/trajectory_io.hpp.
+// base/number_lines.hpp (blank and '#' lines skipped; errors "<source>:<line>: <reason>"). Trajectories (KITTI / TUM)
+// are read and written by loopd/base/trajectory_io.hpp.
 #include <istream>
 #include <string>
 #include <vector>

@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <unordered_set>
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/correction/pose_graph_internal.hpp"
 
 namespace loopd {

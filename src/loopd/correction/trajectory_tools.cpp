@@ -4,7 +4,7 @@
 #include <cmath>
 #include <random>
 
-#include "loopd/core/closest_pose.hpp"
+#include "loopd/base/closest_pose.hpp"
 
 namespace loopd {
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "loopd/descriptor/m2dp.hpp"
-#include "loopd/core/target_clones.hpp"
+#include "loopd/base/target_clones.hpp"
 
 namespace loopd {
 

@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-#include "loopd/core/point_cloud.hpp"
+#include "loopd/base/point_cloud.hpp"
 
 namespace loopd {
 

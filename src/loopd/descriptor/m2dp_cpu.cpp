@@ -7,7 +7,7 @@
 #include <cstdint>
 
 #include "../../../kernels/m2dp_shared.h"
-#include "loopd/core/target_clones.hpp"
+#include "loopd/base/target_clones.hpp"
 #include "loopd/descriptor/m2dp_internal.hpp"
 
 namespace loopd::detail {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "loopd/core/point_cloud.hpp"
+#include "loopd/base/point_cloud.hpp"
 
 namespace loopd {
 

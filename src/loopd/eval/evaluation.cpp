@@ -13,7 +13,7 @@ namespace {
 
 using detail::FrameIndex;
 
-bool has_descriptor(const LoopRecord& r) { return std::isfinite(r.descriptor_distance) && r.descriptor_distance >= 0.0 && r.stage != "gate"; }
+bool has_descriptor(const LoopDecision& r) { return std::isfinite(r.descriptor_distance) && r.descriptor_distance >= 0.0 && r.stage != "gate"; }
 
 int status_rank(LoopStatus s) {
   switch (s) {
@@ -26,7 +26,7 @@ int status_rank(LoopStatus s) {
   }
 }
 
-TimingStats timing_stats(const std::vector<LoopRecord>& loops, double LoopRecord::*field) {
+TimingStats timing_stats(const std::vector<LoopDecision>& loops, double LoopDecision::*field) {
   std::vector<double> v;
   for (const auto& l : loops)
     if (l.*field > 0.0 && std::isfinite(l.*field)) v.push_back(l.*field);
@@ -61,7 +61,7 @@ struct PairVerdicts {
   std::map<LoopPair, double> best_distance;  ///< smallest descriptor distance of the pair's events
 };
 
-PairVerdicts pair_verdicts(const std::vector<LoopRecord>& loops) {
+PairVerdicts pair_verdicts(const std::vector<LoopDecision>& loops) {
   PairVerdicts v;
   for (std::size_t i = 0; i < loops.size(); ++i) {
     const auto& l = loops[i];
@@ -78,7 +78,7 @@ PairVerdicts pair_verdicts(const std::vector<LoopRecord>& loops) {
 
 /// @brief The decisive event `l` (index `idx`) against ground truth: keyframes, frame gap, true loop, and the error of
 /// its T_match_query.
-LoopCheck check_loop(std::size_t idx, const LoopRecord& l, const std::vector<std::int64_t>& keyframe_utimes, const std::vector<StampedPose>& gt,
+LoopCheck check_loop(std::size_t idx, const LoopDecision& l, const std::vector<std::int64_t>& keyframe_utimes, const std::vector<StampedPose>& gt,
                      const FrameIndex& frames, const EvalConfig& config) {
   const std::int64_t gi = config.max_interpolation_gap_us, gn = config.max_nearest_gap_us;
   LoopCheck c;
@@ -130,7 +130,7 @@ LoopTally check_loops(const EvalInput& in, const std::vector<StampedPose>& gt, c
   const LoopGroundTruth& lgt = rep.loop_ground_truth;
   LoopTally tally;
   for (const auto& [key, idx] : verdicts.decisive) {
-    const LoopRecord& l = in.loops[idx];
+    const LoopDecision& l = in.loops[idx];
     LoopCheck c = check_loop(idx, l, rep.keyframe_utimes, gt, frames, config);
     const bool q_revisit = c.query_keyframe >= 0 && lgt.revisit[static_cast<std::size_t>(c.query_keyframe)];
     if (l.status == LoopStatus::kAccepted) count_accepted(c, q_revisit, config, rep, tally);
@@ -202,7 +202,7 @@ void fill_pose_errors(EvalReport& rep) {
 }
 
 /// @brief How far the accepted loops' T_match_query lie from ground truth (the closure tolerance's two quantities).
-void fill_loop_errors(const std::vector<LoopRecord>& loops, EvalReport& rep) {
+void fill_loop_errors(const std::vector<LoopDecision>& loops, EvalReport& rep) {
   std::vector<double> translation, rotation;
   for (const LoopCheck& c : rep.checks)
     if (c.has_ground_truth && loops[c.loop].status == LoopStatus::kAccepted) {
@@ -223,19 +223,19 @@ void fill_session_metrics(const EvalInput& in, const std::vector<StampedPose>& g
   }
   std::vector<SessionLoop> loops;
   for (const LoopCheck& c : rep.checks) {
-    const LoopRecord& l = in.loops[c.loop];
-    if (l.status == LoopStatus::kAccepted) loops.push_back({l.query_session, l.match_session, l.query_utime, c.correct});
+    const LoopDecision& l = in.loops[c.loop];
+    if (l.status == LoopStatus::kAccepted) loops.push_back({l.query.session, l.match.session, l.query_utime, c.correct});
   }
   rep.sessions = session_metrics(kfs, loops, in.sessions, gt, config.sessions);
 }
 
 /// @brief Per-stage timings over the loop events.
-void fill_timings(const std::vector<LoopRecord>& loops, EvalReport& rep) {
-  rep.ms_descriptor = timing_stats(loops, &LoopRecord::ms_descriptor);
-  rep.ms_fourpcs = timing_stats(loops, &LoopRecord::ms_fourpcs);
-  rep.ms_gicp = timing_stats(loops, &LoopRecord::ms_gicp);
-  rep.ms_hungarian = timing_stats(loops, &LoopRecord::ms_hungarian);
-  rep.ms_total = timing_stats(loops, &LoopRecord::ms_total);
+void fill_timings(const std::vector<LoopDecision>& loops, EvalReport& rep) {
+  rep.ms_descriptor = timing_stats(loops, &LoopDecision::ms_descriptor);
+  rep.ms_fourpcs = timing_stats(loops, &LoopDecision::ms_fourpcs);
+  rep.ms_gicp = timing_stats(loops, &LoopDecision::ms_gicp);
+  rep.ms_hungarian = timing_stats(loops, &LoopDecision::ms_hungarian);
+  rep.ms_total = timing_stats(loops, &LoopDecision::ms_total);
 }
 
 }  // namespace

@@ -5,28 +5,13 @@
 #include <string>
 #include <vector>
 
-#include "loopd/core/pose.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/eval/loop_ground_truth.hpp"
 #include "loopd/eval/pose_error.hpp"
 #include "loopd/eval/session_metrics.hpp"
+#include "loopd/records/loop_decision.hpp"
 
 namespace loopd {
-
-/// @brief Status of a loop decision (mirrors loop_event_t's STATUS_* constants).
-enum class LoopStatus { kCandidate = 0, kAccepted = 1, kRejected = 2 };
-
-/// @brief One loop decision published by loopd, in core types (loop_event_t without LCM).
-struct LoopRecord {
-  std::int64_t event_id = 0;
-  std::int64_t query_utime = 0;                       ///< [us] scan utime of the query (newer) keyframe
-  std::int64_t match_utime = 0;                       ///< [us] scan utime of the match (older) keyframe
-  std::int32_t query_session = 0, match_session = 0;  ///< loopd sessions of the two keyframes (0 in logs before sessions)
-  LoopStatus status = LoopStatus::kCandidate;
-  std::string stage;                  ///< gate, descriptor, fourpcs, gicp, hungarian, accepted
-  double descriptor_distance = -1.0;  ///< M2DP distance; < 0 (or stage "gate") when not computed
-  Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();
-  double ms_descriptor = 0, ms_fourpcs = 0, ms_gicp = 0, ms_hungarian = 0, ms_total = 0;  ///< [ms]
-};
 
 /// @brief One corrected keyframe pose (the last trajectory_t revision).
 struct KeyframePose {
@@ -40,7 +25,7 @@ struct EvalInput {
   std::vector<StampedPose> ground_truth;                         ///< T_world_sensor, sorted by utime
   std::vector<StampedPose> odometry;                             ///< T_odom_sensor, sorted by utime
   std::vector<std::int64_t> scan_utimes;                         ///< [us] in drive order: the index is the frame number
-  std::vector<LoopRecord> loops;                                 ///< every loop event
+  std::vector<LoopDecision> loops;                               ///< every loop event
   std::vector<KeyframePose> corrected;                           ///< last trajectory revision, oldest first (may be empty)
   Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();  ///< of that revision (for later keyframes)
   std::vector<SessionAnchor> sessions;                           ///< that revision's session list (empty in older logs)

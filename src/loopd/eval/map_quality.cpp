@@ -7,7 +7,7 @@
 #include <tuple>
 #include <nlohmann/json.hpp>
 
-#include "loopd/core/kdtree.hpp"
+#include "loopd/base/kdtree.hpp"
 
 namespace loopd {
 namespace {

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "loopd/core/point_cloud.hpp"
-#include "loopd/core/voxel_accumulator.hpp"
+#include "loopd/base/point_cloud.hpp"
+#include "loopd/base/voxel_accumulator.hpp"
 
 namespace loopd {
 

@@ -4,8 +4,8 @@
 #include <optional>
 #include <vector>
 
-#include "loopd/core/closest_pose.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/closest_pose.hpp"
+#include "loopd/base/pose.hpp"
 
 namespace loopd {
 
@@ -16,7 +16,7 @@ struct ErrorStats {
 };
 ErrorStats error_stats(std::vector<double> errors);
 
-/// closest_pose_errors (Vlaminck 2019, 5.4): loopd/core/closest_pose.hpp.
+/// closest_pose_errors (Vlaminck 2019, 5.4): loopd/base/closest_pose.hpp.
 
 /// @brief Least-squares rigid transform T (rotation + translation, optionally scale) with T * source ~ target
 ///        (Umeyama 1991). Needs >= 3 non-collinear points for a unique rotation; returns identity when empty.

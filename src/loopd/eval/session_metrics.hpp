@@ -6,7 +6,7 @@
 #include <optional>
 #include <vector>
 
-#include "loopd/core/pose.hpp"
+#include "loopd/base/pose.hpp"
 
 namespace loopd {
 

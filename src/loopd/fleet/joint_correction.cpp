@@ -4,7 +4,7 @@
 #include <map>
 #include <unordered_map>
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 
 namespace loopd {
 namespace {

@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "loopd/core/information.hpp"
+#include "loopd/base/information.hpp"
 #include "loopd/correction/loop_corrector.hpp"
-#include "loopd/keyframe/keyframe_key.hpp"
+#include "loopd/records/keyframe_key.hpp"
 #include "loopd/pipeline/session_frames.hpp"
 
 namespace loopd {

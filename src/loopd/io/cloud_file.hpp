@@ -2,7 +2,7 @@
 #include <optional>
 #include <string>
 
-#include "loopd/core/point_cloud.hpp"
+#include "loopd/base/point_cloud.hpp"
 
 namespace loopd {
 

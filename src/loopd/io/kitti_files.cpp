@@ -4,7 +4,7 @@
 #include <fstream>
 #include <optional>
 
-#include "loopd/core/number_lines.hpp"
+#include "loopd/base/number_lines.hpp"
 
 namespace loopd {
 

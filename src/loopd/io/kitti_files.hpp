@@ -1,12 +1,12 @@
 #pragma once
-// KITTI odometry sequence text files besides the poses (which core/trajectory_io.hpp reads as kKitti): times.txt,
+// KITTI odometry sequence text files besides the poses (which base/trajectory_io.hpp reads as kKitti): times.txt,
 // the velodyne-to-camera calibration Tr, and the camera-frame poses converted to lidar poses. Errors name the file and
 // the 1-based line.
 #include <Eigen/Geometry>
 #include <string>
 #include <vector>
 
-#include "loopd/core/trajectory_io.hpp"
+#include "loopd/base/trajectory_io.hpp"
 
 namespace loopd {
 

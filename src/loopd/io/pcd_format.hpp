@@ -1,7 +1,7 @@
 #pragma once
 #include <string>
 
-#include "loopd/core/point_cloud.hpp"
+#include "loopd/base/point_cloud.hpp"
 #include "loopd/io/cloud_file.hpp"
 
 namespace loopd {

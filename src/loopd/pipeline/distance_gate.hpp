@@ -8,7 +8,7 @@
 
 #include <Eigen/Core>
 
-#include "loopd/keyframe/keyframe_key.hpp"
+#include "loopd/records/keyframe_key.hpp"
 
 namespace loopd {
 

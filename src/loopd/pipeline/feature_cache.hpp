@@ -5,7 +5,7 @@
 #include <memory>
 #include <unordered_map>
 
-#include "loopd/keyframe/keyframe_record.hpp"
+#include "loopd/records/keyframe_record.hpp"
 
 namespace loopd {
 

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "loopd/descriptor/scan_context.hpp"
-#include "loopd/keyframe/keyframe_key.hpp"
+#include "loopd/records/keyframe_key.hpp"
 #include "loopd/retrieval/place_index.hpp"
 
 namespace loopd {

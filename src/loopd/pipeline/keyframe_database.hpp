@@ -4,7 +4,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "loopd/keyframe/keyframe_record.hpp"
+#include "loopd/records/keyframe_record.hpp"
 
 namespace loopd {
 

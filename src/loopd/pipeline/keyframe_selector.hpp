@@ -4,7 +4,7 @@
 #include <optional>
 #include <string>
 
-#include "loopd/core/pose.hpp"
+#include "loopd/base/pose.hpp"
 
 namespace loopd {
 

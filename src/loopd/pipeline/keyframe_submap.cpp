@@ -1,6 +1,6 @@
 #include "loopd/pipeline/keyframe_submap.hpp"
 
-#include "loopd/core/fast_atan2.hpp"
+#include "loopd/base/fast_atan2.hpp"
 
 #include <algorithm>
 #include <array>

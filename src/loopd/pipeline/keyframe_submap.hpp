@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "loopd/core/deskew.hpp"
-#include "loopd/core/point_cloud.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/deskew.hpp"
+#include "loopd/base/point_cloud.hpp"
+#include "loopd/base/pose.hpp"
 
 namespace loopd {
 

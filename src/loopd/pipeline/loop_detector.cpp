@@ -6,9 +6,9 @@
 #include <future>
 #include <map>
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/scene_scale.hpp"
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/scene_scale.hpp"
+#include "loopd/base/stopwatch.hpp"
 
 namespace loopd {
 

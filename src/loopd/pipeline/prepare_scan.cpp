@@ -1,8 +1,8 @@
 #include "loopd/pipeline/prepare_scan.hpp"
 
-#include "loopd/core/cloud_ops.hpp"
-#include "loopd/core/stopwatch.hpp"
-#include "loopd/core/voxel_grid.hpp"
+#include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/stopwatch.hpp"
+#include "loopd/base/voxel_grid.hpp"
 #include "loopd/registration/gicp.hpp"
 
 #include <algorithm>

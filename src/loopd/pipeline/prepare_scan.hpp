@@ -7,13 +7,13 @@
 #include <string>
 #include <vector>
 
-#include "loopd/core/point_cloud.hpp"
-#include "loopd/keyframe/prepared_scan.hpp"
+#include "loopd/base/point_cloud.hpp"
+#include "loopd/records/prepared_scan.hpp"
 #include "loopd/segmentation/segmentation.hpp"
 
 namespace loopd {
 
-struct LidarModel;  // loopd/core/lidar_model.hpp
+struct LidarModel;  // loopd/base/lidar_model.hpp
 
 /// @brief Settings of prepare_scan.
 ///

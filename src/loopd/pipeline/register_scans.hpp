@@ -4,7 +4,7 @@
 #include <optional>
 #include <string>
 
-#include "loopd/core/point_cloud.hpp"
+#include "loopd/base/point_cloud.hpp"
 #include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/registration/four_pcs.hpp"
 

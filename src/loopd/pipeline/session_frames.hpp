@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "loopd/keyframe/keyframe_key.hpp"
+#include "loopd/records/keyframe_key.hpp"
 
 namespace loopd {
 

@@ -17,7 +17,7 @@
 
 #include <nanoflann.hpp>
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 
 namespace loopd {
 namespace {
@@ -30,7 +30,7 @@ constexpr int kCheckEvery = 16;              // early-termination check period [
 
 inline double deg2rad(double d) { return d * kPi / 180.0; }
 
-// k-d tree (nanoflann, like core/kdtree.hpp) with the three searches 4PCS needs, without per-query allocation:
+// k-d tree (nanoflann, like base/kdtree.hpp) with the three searches 4PCS needs, without per-query allocation:
 // radius (coincident intermediate points, Sec. 4.2.2), "any point within delta?" for the LCP test (Sec. 4.2.3; the
 // search stops at the first point inside the ball) and nearest-within-radius for the refinement.
 class PointTree {

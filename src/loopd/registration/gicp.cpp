@@ -6,8 +6,8 @@
 #include <limits>
 #include <sstream>
 
-#include "loopd/core/kdtree.hpp"
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/kdtree.hpp"
+#include "loopd/base/stopwatch.hpp"
 
 namespace loopd {
 namespace {

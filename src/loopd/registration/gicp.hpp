@@ -49,7 +49,7 @@ struct GicpResult {
   int iterations = 0;    ///< Gauss-Newton iterations over all stages
   /// Gauss-Newton Hessian sum J^T M J at the final transform (Ren 2019, Eq. 6), usable as loop-edge information.
   /// Order (rx, ry, rz, tx, ty, tz), right perturbation T * Exp(delta), i.e. in the source frame: the solver's own
-  /// parameter order. As information it is used in loopd's order (core/information.hpp, information_from_rotation_first).
+  /// parameter order. As information it is used in loopd's order (base/information.hpp, information_from_rotation_first).
   /// Units: the Mahalanobis weights use the normalised covariances diag(eps, 1, 1) [m^2], so H is information up to
   /// a scale (divide by a point noise variance to make it metric).
   Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();

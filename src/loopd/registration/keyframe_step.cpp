@@ -3,8 +3,8 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
-#include "loopd/core/pose.hpp"
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/pose.hpp"
+#include "loopd/base/stopwatch.hpp"
 
 namespace loopd {
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "loopd/core/information.hpp"
+#include "loopd/base/information.hpp"
 #include "loopd/registration/gicp.hpp"
 
 namespace loopd {
@@ -49,7 +49,7 @@ struct KeyframeStepConfig {
 struct KeyframeStep {
   bool measured = false;  ///< T_previous_current is the scans' (otherwise `reason` says why not)
   Eigen::Isometry3d T_previous_current = Eigen::Isometry3d::Identity();
-  Information6d information = Information6d::Zero();  ///< of T_previous_current (core/information.hpp order)
+  Information6d information = Information6d::Zero();  ///< of T_previous_current (base/information.hpp order)
   double translation_change = 0.0;                    ///< [m] from the odometry's step
   double rotation_change_deg = 0.0;                   ///< [deg]
   double fitness = 0.0;

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <vector>
 
-#include "loopd/core/pose.hpp"
-#include "loopd/core/stopwatch.hpp"
-#include "loopd/core/voxel_grid.hpp"
+#include "loopd/base/pose.hpp"
+#include "loopd/base/stopwatch.hpp"
+#include "loopd/base/voxel_grid.hpp"
 
 namespace loopd {
 namespace {

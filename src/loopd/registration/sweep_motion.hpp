@@ -8,7 +8,7 @@
 #include <optional>
 #include <string>
 
-#include "loopd/core/point_cloud.hpp"
+#include "loopd/base/point_cloud.hpp"
 #include "loopd/registration/gicp.hpp"
 
 namespace loopd {

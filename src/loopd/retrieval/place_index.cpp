@@ -7,7 +7,7 @@
 #include <mutex>
 #include <utility>
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 
 namespace loopd {
 

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "loopd/descriptor/scan_context.hpp"
-#include "loopd/keyframe/keyframe_key.hpp"
+#include "loopd/records/keyframe_key.hpp"
 
 namespace loopd {
 

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <cstdint>
 
-#include "loopd/core/fast_atan2.hpp"
-#include "loopd/core/lidar_model.hpp"
+#include "loopd/base/fast_atan2.hpp"
+#include "loopd/base/lidar_model.hpp"
 #include "loopd/segmentation/segmentation_internal.hpp"
 
 namespace loopd::detail {

@@ -4,7 +4,7 @@
 // to pick wide coplanar 4PCS bases. The steps live in range_image.cpp, region_growing.cpp and cluster_fit.cpp.
 #include "loopd/segmentation/segmentation.hpp"
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/segmentation/segmentation_internal.hpp"
 
 namespace loopd {

@@ -5,11 +5,11 @@
 #include <string>
 #include <vector>
 
-#include "loopd/core/point_cloud.hpp"
+#include "loopd/base/point_cloud.hpp"
 
 namespace loopd {
 
-struct LidarModel;  // loopd/core/lidar_model.hpp
+struct LidarModel;  // loopd/base/lidar_model.hpp
 
 /// @brief Settings of the range-image region growing and plane fitting (Vlaminck 2019, Sec. 4.2.1).
 struct SegmentationConfig {

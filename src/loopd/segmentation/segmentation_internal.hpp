@@ -9,12 +9,12 @@
 #include <string>
 #include <vector>
 
-#include "loopd/core/point_cloud.hpp"
+#include "loopd/base/point_cloud.hpp"
 #include "loopd/segmentation/segmentation.hpp"
 
 namespace loopd {
 
-struct LidarModel;  // loopd/core/lidar_model.hpp
+struct LidarModel;  // loopd/base/lidar_model.hpp
 
 namespace detail {
 

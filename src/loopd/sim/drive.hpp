@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
-#include "loopd/core/lidar_model.hpp"
-#include "loopd/core/point_cloud.hpp"
-#include "loopd/core/pose.hpp"
+#include "loopd/base/lidar_model.hpp"
+#include "loopd/base/point_cloud.hpp"
+#include "loopd/base/pose.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
 

@@ -5,8 +5,8 @@
 #include <optional>
 #include <string>
 
-#include "loopd/core/lidar_model.hpp"
-#include "loopd/core/point_cloud.hpp"
+#include "loopd/base/lidar_model.hpp"
+#include "loopd/base/point_cloud.hpp"
 #include "loopd/sim/town.hpp"
 
 namespace loopd {

@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "loopd/core/lidar_model.hpp"
+#include "loopd/base/lidar_model.hpp"
 
 namespace loopd {
 

@@ -16,7 +16,7 @@
 ///    DriveConfig::session K >= 2: the same town on another day (other start, reversed for even K, own odometry
 ///    frame), DriveConfig::odometry_reset_at: a restarted odometry.                                       [drive.hpp]
 ///  - build_route_path(town, config, reversed): one lap of a route's driven path.                        [route.hpp]
-#include "loopd/core/lidar_model.hpp"
+#include "loopd/base/lidar_model.hpp"
 #include "loopd/sim/drive.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"

@@ -1,10 +1,10 @@
 #include "loopd/verify/verify.hpp"
 
-#include "loopd/core/information.hpp"
+#include "loopd/base/information.hpp"
 
 #include <sstream>
 
-#include "loopd/core/stopwatch.hpp"
+#include "loopd/base/stopwatch.hpp"
 #include "loopd/verify/cluster_consistency.hpp"
 
 namespace loopd {

@@ -8,8 +8,8 @@
 
 #include "loopd/registration/four_pcs.hpp"
 #include "loopd/registration/gicp.hpp"
-#include "loopd/core/information.hpp"
-#include "loopd/keyframe/prepared_scan.hpp"
+#include "loopd/base/information.hpp"
+#include "loopd/records/prepared_scan.hpp"
 
 namespace loopd {
 
@@ -66,7 +66,7 @@ struct VerifyResult {
   int icp_iterations = 0;
   bool icp_converged = false;
   int clusters_query = 0, clusters_match = 0, clusters_matched = 0;  ///< centroid check counts
-  /// GICP Hessian at T_match_query as loop-edge information, in loopd's one order (core/information.hpp: t then r).
+  /// GICP Hessian at T_match_query as loop-edge information, in loopd's one order (base/information.hpp: t then r).
   Information6d information = Information6d::Zero();
   double ms_fourpcs = 0, ms_gicp = 0, ms_hungarian = 0, ms_total = 0;  ///< [ms]
 };

@@ -1,7 +1,7 @@
 #include <iostream>
 #include <loopd/loop_event_t.hpp>
 
-#include "loopd/core/cloud_ops.hpp"
+#include "loopd/base/cloud_ops.hpp"
 #include "loopd/correction/loop_corrector.hpp"
 #include "loopd/descriptor/m2dp.hpp"
 

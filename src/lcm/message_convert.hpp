@@ -1,0 +1,41 @@
+#pragma once
+#include <string>
+
+#include <loopd/point_cloud_t.hpp>
+#include <loopd/pose_t.hpp>
+
+#include "loopd/base/point_cloud.hpp"
+#include "loopd/base/pose.hpp"
+
+namespace loopd {
+
+/// @brief Default channel names (all configurable in the daemon and tools).
+namespace channels {
+inline constexpr const char* kScan = "LIDAR_SCAN";
+inline constexpr const char* kPose = "ODOMETRY_POSE";
+inline constexpr const char* kGroundTruth = "GROUND_TRUTH_POSE";
+inline constexpr const char* kLoopEvent = "LOOP_EVENT";
+inline constexpr const char* kTrajectory = "CORRECTED_TRAJECTORY";
+inline constexpr const char* kStatus = "LOOPD_STATUS";
+}  // namespace channels
+
+/// @brief Most rings a scan may declare (lidars have at most 128 beams; the range image has one row per ring).
+inline constexpr int kMaxRings = 512;
+/// @brief Largest odometry position accepted [m]: anything beyond is a corrupt pose, not a place on Earth.
+inline constexpr double kMaxPosition = 1e7;
+
+/// @brief Largest |time_offset| of a point accepted [s]: a sweep lasts 0.05-0.2 s (5-20 Hz); anything beyond a second
+/// is a stamp from another clock, not a time within the sweep.
+inline constexpr double kMaxPointTimeOffset = 1.0;
+
+/// @brief Per-point times go out when the cloud has them (num_point_times = num_points), else num_point_times = 0.
+point_cloud_t to_message(const PointCloud& cloud, std::int64_t utime, std::int64_t seq, const std::string& frame);
+/// @brief Validates array sizes and per-point times (finite, within kMaxPointTimeOffset); NaN points are kept (the
+/// pipeline filters and counts them). Times fill cloud->time when the message has them.
+bool from_message(const point_cloud_t& msg, PointCloud* cloud, std::string* error);
+
+pose_t to_message(const StampedPose& pose, std::int64_t seq);
+/// @brief Rejects non-finite numbers, positions beyond kMaxPosition and a zero quaternion.
+bool from_message(const pose_t& msg, StampedPose* pose, std::string* error);
+
+}  // namespace loopd

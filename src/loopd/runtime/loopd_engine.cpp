@@ -1,0 +1,549 @@
+#include "loopd/runtime/loopd_engine.hpp"
+
+#include "loopd/base/scan_fingerprint.hpp"
+#include "loopd/base/scene_scale.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <pthread.h>
+#include <string>
+
+#include "loopd/runtime/heap_release.hpp"
+#include "loopd/store/map_cloud_codec.hpp"
+#include "loopd/runtime/log_level.hpp"
+
+namespace loopd {
+namespace {
+/// PoCL's kernel compiler: ~70 MB of resident code after the kernels are built, idle while loopd detects loops.
+const std::vector<std::string> kCompilerLibraries{"libLLVM", "libclang-cpp"};
+}  // namespace
+
+std::optional<std::string> EngineConfig::validate() const {
+  if (auto e = association.validate()) return e;
+  if (auto e = deskew.validate()) return e;
+  if (auto e = sweep_motion.validate()) return "deskew from scans: " + *e;
+  if (auto e = submap.validate()) return e;
+  if (auto e = detector.validate()) return e;
+  if (num_threads < 0) return "num_threads must be >= 0 (0 = hardware threads)";
+  if (queue_capacity < 1) return "queue_capacity must be >= 1";
+  if (max_points_per_scan < 1) return "max_points_per_scan must be >= 1";
+  if (!(clock_jump > 0.0)) return "input.clock_jump must be > 0 [s]";
+  if (!(max_odometry_speed > 0.0)) return "input.max_odometry_speed must be > 0 [m/s]";
+  if (auto e = sessions.validate()) return e;
+  if (auto e = map_cloud.validate()) return e;
+  return std::nullopt;
+}
+
+LoopdEngine::LoopdEngine(const EngineConfig& config, EngineSink* sink)
+    : config_(config),
+      sink_(sink),
+      associator_(config.association, config.deskew.enabled),
+      scan_clock_(ClockWatch::Config{config.clock_jump, 2}),
+      pose_clock_(ClockWatch::Config{config.clock_jump, 2}),
+      odometry_filter_(OdometryResetFilter::Config{config.max_odometry_speed, 360.0, 2.0}),
+      selector_(config.detector.keyframe),
+      detector_(config.detector),
+      session_keys_([&config] {
+        SessionPolicy policy = config.sessions;
+        policy.max_speed = config.max_odometry_speed;
+        return policy;
+      }()),
+      scan_window_(config.submap) {
+  int n = config_.num_threads > 0 ? config_.num_threads : static_cast<int>(std::thread::hardware_concurrency());
+  if (n < 1) n = 1;
+  stats_.device = detector_.descriptor_device();
+  page_out_library_code(kCompilerLibraries);  // the M2DP kernels are built: PoCL's compiler is idle from here on
+  for (int i = 0; i < n; ++i)
+    workers_.emplace_back([this, i] {
+      const std::string name = "loopd-worker" + std::to_string(i);  // what top -H and gdb show
+      pthread_setname_np(pthread_self(), name.c_str());
+      worker_loop();
+    });
+}
+
+LoopdEngine::~LoopdEngine() {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    stopping_ = true;
+  }
+  queue_cv_.notify_all();
+  space_cv_.notify_all();
+  for (auto& t : workers_) t.join();
+}
+
+bool LoopdEngine::push_scan(std::int64_t utime, PointCloud cloud, double arrival_s) {
+  std::size_t finite = 0;
+  for (const auto& p : cloud.points) finite += p.allFinite() ? 1u : 0u;
+  const bool too_large = static_cast<std::int64_t>(cloud.size()) > config_.max_points_per_scan;
+  const ClockVerdict verdict = (finite == 0 || too_large) ? ClockVerdict::kStale : scan_clock_.check(utime, arrival_s);
+  const bool jumped = verdict == ClockVerdict::kJumpBack || verdict == ClockVerdict::kJumpForward;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.scans_in;
+    stats_.nan_points += static_cast<std::int64_t>(cloud.size() - finite);
+    if (finite == 0 || too_large || verdict == ClockVerdict::kStale) {
+      ++stats_.invalid_scans;
+      if (verdict == ClockVerdict::kStale && !too_large && finite > 0) loss_.on_late_scan(utime);  // late, not lost
+    }
+  }
+  if (finite == 0 || too_large || verdict == ClockVerdict::kStale) {
+    update_input_health();
+    return false;
+  }
+  if (verdict == ClockVerdict::kJumpBack) associator_.restart_scans();
+  loss_.on_scan(utime, jumped);
+  layout_.on_scan(static_cast<std::int64_t>(cloud.size()), cloud.num_rings);
+  update_input_health();
+  if (!associator_.add_scan(utime, std::move(cloud), arrival_s)) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.invalid_scans;
+    return false;
+  }
+  handle_associated(associator_.poll(arrival_s, !config_.block_when_full));
+  return true;
+}
+
+bool LoopdEngine::push_pose(const StampedPose& raw, double arrival_s) {
+  const ClockVerdict verdict = pose_clock_.check(raw.utime, arrival_s);
+  if (verdict == ClockVerdict::kStale) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.poses_in;
+    ++stats_.invalid_poses;
+    return false;
+  }
+  const bool jumped = verdict == ClockVerdict::kJumpBack || verdict == ClockVerdict::kJumpForward;
+  if (verdict == ClockVerdict::kJumpBack) associator_.restart_poses();
+  if (jumped) odometry_filter_.forget_last();  // times across a jump cannot be compared
+  bool reset = false;
+  const StampedPose pose = odometry_filter_.apply(raw, &reset);
+  if (reset) session_keys_.on_odometry_reset(raw.utime, odometry_filter_.T_continuous_odom());
+  loss_.on_pose(pose.utime, jumped);
+  update_input_health();
+  const bool ok = associator_.add_pose(pose);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.poses_in;
+    if (!ok) ++stats_.invalid_poses;
+  }
+  handle_associated(associator_.poll(arrival_s, !config_.block_when_full));
+  return ok;
+}
+
+void LoopdEngine::update_input_health() {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.scans_lost_estimate = loss_.lost();
+  stats_.scan_loss_fraction = loss_.loss_fraction();
+  stats_.clock_jumps = std::max(scan_clock_.jumps(), pose_clock_.jumps());
+  stats_.odometry_resets = odometry_filter_.resets();
+  stats_.sensor_changes = layout_.changes();
+}
+
+void LoopdEngine::tick(double wall_time_s) {
+  handle_associated(associator_.poll(wall_time_s, !config_.block_when_full));
+  {
+    std::lock_guard<std::mutex> lock(sequence_mutex_);
+    if (sequencing_) return;  // busy: it calls the sink anyway
+    sequencing_ = true;       // the sink is this thread's until it gives the role back
+  }
+  sink_->on_idle();
+  // Keyframes that became ready meanwhile waited for the role: sequence them as complete() would have.
+  std::unique_lock<std::mutex> lock(sequence_mutex_);
+  sequencing_ = false;
+  sequence_ready(lock);
+}
+
+bool LoopdEngine::moved_little_since_last_scan(const Eigen::Isometry3d& T_odom_sensor) {
+  const Eigen::Isometry3d motion = last_scan_pose_ ? last_scan_pose_->inverse() * T_odom_sensor : Eigen::Isometry3d::Identity();
+  const bool little = last_scan_pose_ && motion.translation().norm() < config_.detector.steps.max_unskewed_motion &&
+                      rotation_angle(motion) * 180.0 / M_PI < config_.detector.steps.max_unskewed_rotation_deg;
+  last_scan_pose_ = T_odom_sensor;
+  return little;
+}
+
+void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.dropped_no_pose = associator_.dropped_no_pose();
+    stats_.pending_scans = static_cast<int>(associator_.pending());
+  }
+  const bool sweeps_from_scans = config_.deskew.enabled && config_.deskew_from_scans;
+  for (auto& s : scans) {
+    residual_since_keyframe_ += s.residual_sum;
+    // The scan before a keyframe measures the keyframe's sweep motion with it (deskew_from_scans).
+    std::shared_ptr<const WindowScan> previous = std::move(previous_scan_);
+    // The odometry's pose at the scan before that one: the previous sweep's own motion.
+    const StampedPose before_previous = pose_before_previous_;
+    pose_before_previous_ = previous ? StampedPose{previous->utime, previous->T_odom_sensor, 0.0} : StampedPose{};
+    bool timed = sweeps_from_scans && s.cloud.has_time();
+    // A narrow or sparse sensor: every scan is kept a moment for the next keyframe's submap.
+    const bool narrow = scan_window_.update_mode(needs_submap(s.cloud, config_.submap));
+    // A sweep that began before the first pose (the drive's first scan) could only be deskewed by guessing the motion
+    // before the odometry: the next scan, measured throughout, makes a better first keyframe.
+    const bool before_odometry = config_.deskew.enabled && s.cloud.has_time() && sweep_begins_before_poses(s);
+    const bool slow_sweep = moved_little_since_last_scan(s.pose.T_world_sensor) || (config_.compensated_upstream && !s.cloud.has_time());
+    if (before_odometry) timed = false;  // nor the sweep-motion reference of the next one: its motion is not known
+    if (before_odometry || !selector_.accept(s.pose.T_world_sensor, s.utime, [&s] { return scene_scale(s.cloud); })) {
+      if (narrow) {
+        auto kept = keep_for_submaps(std::move(s));
+        if (timed) previous_scan_ = std::move(kept);
+      } else if (timed) {  // only what the next keyframe's sweep motion reads: queued jobs hold it beside their scan
+        previous_scan_ =
+            std::make_shared<const WindowScan>(WindowScan{s.utime, sweep_motion_input(s.cloud, config_.sweep_motion), s.pose.T_world_sensor, {}});
+      }
+      continue;
+    }
+    // The keyframe's raw scan is also the next scan's sweep-motion reference: shared, and copied by the worker that
+    // deskews it rather than here on the ingest thread (a narrow sensor's window keeps its own copy below).
+    std::shared_ptr<const WindowScan> raw;
+    if (timed && !narrow) {
+      raw = std::make_shared<const WindowScan>(WindowScan{s.utime, std::move(s.cloud), s.pose.T_world_sensor, {}});
+      previous_scan_ = raw;
+    } else if (timed) {
+      previous_scan_ =
+          std::make_shared<const WindowScan>(WindowScan{s.utime, sweep_motion_input(s.cloud, config_.sweep_motion), s.pose.T_world_sensor, {}});
+    }
+    const std::uint64_t fingerprint = scan_fingerprint(raw ? raw->cloud : s.cloud);
+    SessionKeys::Assigned assigned = session_keys_.assign(s.utime, s.pose.T_world_sensor, fingerprint);
+    if (!assigned.note.empty() && log_enabled(LogLevel::kInfo)) std::fprintf(stderr, "loopd: %s\n", assigned.note.c_str());
+    if (assigned.stored) ++keyframes_skipped_;
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      stats_.session = assigned.key.session;
+      stats_.sessions_opened = session_keys_.sessions_opened();
+      stats_.keyframes_skipped = keyframes_skipped_.load();
+    }
+    if (assigned.stored) {
+      residual_since_keyframe_ = 0.0;
+      if (narrow) keep_for_submaps(std::move(s));  // the next keyframes' submaps hold it, as in the run that stored it
+      continue;
+    }
+    Job job;
+    job.sequence = next_sequence_++;
+    job.input.key = assigned.key;
+    job.input.utime = s.utime;
+    job.input.T_odom_sensor = assigned.T_odom_sensor;
+    job.input.residual = residual_since_keyframe_;
+    job.input.scan_fingerprint = fingerprint;
+    job.input.motion_compensated = slow_sweep;  // the worker sets it where it deskews the scan
+    residual_since_keyframe_ = 0.0;
+    job.T_odom_scan = s.pose.T_world_sensor;
+    job.previous = std::move(previous);
+    job.before_previous = before_previous;
+    if (narrow) {
+      job.submap = scan_window_.recent(s.utime, s.pose.T_world_sensor);
+      keep_for_submaps(s);  // a copy: the keyframe's scan belongs to the next keyframes' windows too
+    }
+    if (raw)
+      job.raw = std::move(raw);
+    else
+      job.cloud = std::move(s.cloud);
+    job.sweep_begin = s.sweep_begin;
+    job.sweep_end = s.sweep_end;
+    job.sweep_poses = std::move(s.sweep_poses);
+    submit(std::move(job));
+  }
+}
+
+ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes) {
+  // Planes need every keyframe's segmentation back; otherwise descriptors suffice when the store keeps the features.
+  const bool thin = features_in_store_ && !config_.detector.correction.graph.use_plane_constraints;
+  ResumeSummary r = resume_detector(store, detector_, thin ? KeyframeLoad::kDescriptor : KeyframeLoad::kFull);
+  if (!r.ok) return r;
+  session_keys_.restore(r.stored, skip_stored_keyframes);
+  for (const CorrectionOutput& c : r.corrections) sink_->on_correction(c);
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
+  stats_.loops_accepted = detector_.loops_accepted();
+  stats_.loops_rejected = detector_.loops_rejected();
+  return r;
+}
+
+void LoopdEngine::keep_features_in_store(MapStore& store, std::size_t cache_bytes) {
+  features_in_store_ = true;
+  detector_.keep_features_in_store(cache_bytes, [&store](const KeyframeKey& key) -> std::optional<PreparedScan> {
+    StoreResult<PreparedScan> read = store.get_prepared(key);
+    if (!read.ok()) return std::nullopt;
+    return std::move(read.value);
+  });
+}
+
+void LoopdEngine::submit(Job job) {
+  std::unique_lock<std::mutex> lock(queue_mutex_);
+  if (config_.block_when_full) {
+    space_cv_.wait(lock, [&] { return !full() || stopping_; });
+  } else {
+    // Live. The sequential stage far behind (a long verification): wait for it rather than pile up keyframes; the
+    // LCM thread keeps receiving into its own bounded input queue meanwhile.
+    space_cv_.wait(lock, [&] { return ready_backlog_.load() < ready_capacity() || stopping_; });
+  }
+  if (!config_.block_when_full && static_cast<int>(queue_.size()) >= config_.queue_capacity) {
+    // Load shedding (live): the oldest waiting keyframe keeps its pose but skips features and verification.
+    Job shed = std::move(queue_.front());
+    queue_.pop_front();
+    lock.unlock();
+    {
+      std::lock_guard<std::mutex> s(stats_mutex_);
+      ++stats_.shed;
+    }
+    worker_steps_.fetch_add(1);
+    complete(shed.sequence, ReadyKeyframe{shed.input, nullptr, nullptr});
+    lock.lock();
+  }
+  queue_.push_back(std::move(job));
+  lock.unlock();
+  queue_cv_.notify_one();
+}
+
+void LoopdEngine::worker_loop() {
+  for (;;) {
+    Job job;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      queue_cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+      if (stopping_) return;  // shutdown: queued keyframes are abandoned (finish() drains them first in replay)
+      job = std::move(queue_.front());
+      queue_.pop_front();
+      ++busy_;
+    }
+    space_cv_.notify_one();
+    if (job.raw) {
+      job.cloud = job.raw->cloud;
+      job.raw.reset();
+    }
+    deskew_scan(job);
+    merge_submap_scans(job);
+    auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud));
+    note_sensor(*features);
+    MapCloudBlob map_cloud;
+    if (map_clouds_)
+      map_cloud = std::make_shared<const std::vector<std::uint8_t>>(
+          encode_map_cloud(reduce_to_map_cloud(job.cloud, config_.map_cloud), config_.map_cloud.quantum, config_.map_cloud.zstd_level));
+    job.cloud = PointCloud();
+    worker_steps_.fetch_add(1);
+    if (!features->ok) {
+      std::lock_guard<std::mutex> s(stats_mutex_);
+      ++stats_.feature_failures;
+    }
+    complete(job.sequence, ReadyKeyframe{job.input, features, std::move(map_cloud)});
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      --busy_;
+    }
+  }
+}
+
+void LoopdEngine::note_sensor(KeyframeFeatures& f) {
+  constexpr int kMaxLayoutNotes = 5;
+  // The layout up to its angles ("64 rings", "no ring pattern: 64 rows"): angles move by a tenth of a degree a scan.
+  const std::string layout = f.sensor_layout.substr(0, std::min(f.sensor_layout.find(" between"), f.sensor_layout.find(" over")));
+  std::string log_layout, log_mismatch;
+  {
+    std::lock_guard<std::mutex> s(stats_mutex_);
+    if (!f.sensor_layout.empty() && layout != sensor_logged_ && sensor_notes_ < kMaxLayoutNotes) {
+      sensor_logged_ = layout;
+      log_layout = f.sensor_layout + (++sensor_notes_ == kMaxLayoutNotes ? " (further layout notes are not logged)" : "");
+    }
+    if (!f.sensor_mismatch.empty() && !sensor_mismatch_logged_) {
+      sensor_mismatch_logged_ = true;
+      log_mismatch = f.sensor_mismatch;
+    }
+  }
+  if (!log_layout.empty() && log_enabled(LogLevel::kInfo))
+    std::fprintf(stderr, "loopd: sensor (%s): %s\n", config_.detector.sensor.c_str(), log_layout.c_str());
+  if (!log_mismatch.empty())
+    std::fprintf(stderr, "loopd: WARNING: %s (the preset is used as given; --sensor auto reads the rings from the scans)\n", log_mismatch.c_str());
+  f.sensor_layout.clear();
+  f.sensor_layout.shrink_to_fit();
+  f.sensor_mismatch.clear();
+  f.sensor_mismatch.shrink_to_fit();
+}
+
+std::shared_ptr<const WindowScan> LoopdEngine::keep_for_submaps(AssociatedScan s) {
+  auto kept = std::make_shared<WindowScan>();
+  kept->utime = s.utime;
+  kept->cloud = std::move(s.cloud);
+  kept->T_odom_sensor = s.pose.T_world_sensor;
+  kept->sweep_poses = std::move(s.sweep_poses);
+  scan_window_.push(kept);
+  return kept;
+}
+
+void LoopdEngine::merge_submap_scans(Job& job) {
+  if (job.submap.empty()) return;
+  const int merged = merge_submap(job.submap, job.T_odom_scan, config_.deskew, &job.cloud);
+  job.submap = {};
+  std::lock_guard<std::mutex> s(stats_mutex_);
+  ++stats_.keyframes_submapped;
+  stats_.submap_scans += merged;
+}
+
+bool LoopdEngine::sweep_begins_before_poses(const AssociatedScan& s) { return !s.sweep_poses.empty() && s.sweep_poses.front().utime > s.sweep_begin; }
+
+std::vector<StampedPose> LoopdEngine::sweep_poses_from_scans(const Job& job) {
+  const std::shared_ptr<const WindowScan>& prev = job.previous;
+  if (!prev || !prev->cloud.has_time()) return {};
+  const double dt = static_cast<double>(job.input.utime - prev->utime) * 1e-6;
+  if (!(dt > 0.0) || dt > config_.deskew.max_pose_gap) return {};  // not the scan just before it (a scan lost between)
+  if (job.sweep_begin == job.sweep_end) return {};                 // an instantaneous scan
+  // Odometry with poses inside the sweep (an IMU-rate pose stream) already follows the motion through the sweep.
+  for (const StampedPose& p : job.sweep_poses)
+    if (p.utime > job.sweep_begin && p.utime < job.sweep_end) return {};
+  const Eigen::Isometry3d odometry_T_previous_current = prev->T_odom_sensor.inverse() * job.T_odom_scan;
+  std::optional<SweepIncrement> odometry_previous_sweep;
+  if (job.before_previous.utime != 0) {
+    const double dt_previous = static_cast<double>(prev->utime - job.before_previous.utime) * 1e-6;
+    if (dt_previous > 0.0 && dt_previous <= config_.deskew.max_pose_gap)
+      odometry_previous_sweep = SweepIncrement{job.before_previous.T_world_sensor.inverse() * prev->T_odom_sensor, dt_previous};
+  }
+  const SweepMotionResult m =
+      estimate_sweep_motion(prev->cloud, job.cloud, dt, odometry_T_previous_current, config_.sweep_motion, odometry_previous_sweep);
+  {
+    std::lock_guard<std::mutex> s(stats_mutex_);
+    ++(m.refined ? stats_.sweeps_from_scans : stats_.sweeps_from_odometry);
+    if (m.refined && m.velocity_changed) ++stats_.sweeps_velocity_changed;
+  }
+  if (!m.refined) return {};
+  StampedPose a, b;
+  a.utime = prev->utime;
+  a.T_world_sensor = job.T_odom_scan * m.T_previous_current.inverse();
+  b.utime = job.input.utime;
+  b.T_world_sensor = job.T_odom_scan;
+  return {a, b};
+}
+
+void LoopdEngine::deskew_scan(Job& job) {
+  if (!job.cloud.has_time()) return;  // scans without times stay as they came, bit for bit
+  if (!config_.deskew.enabled) {
+    const auto [first, last] = time_span(job.cloud);
+    if (first == 0.0 && last == 0.0) job.input.motion_compensated = true;  // an instantaneous scan: free of skew anyway
+    return;
+  }
+  if (config_.deskew_from_scans) {
+    std::vector<StampedPose> measured = sweep_poses_from_scans(job);
+    if (!measured.empty()) job.sweep_poses = std::move(measured);
+  }
+  job.previous.reset();
+  const DeskewResult r = deskew(config_.deskew, job.sweep_poses, job.input.utime, &job.cloud);
+  job.sweep_poses = {};
+  if (r.applied() || r.skipped == DeskewSkip::kNoSpan) job.input.motion_compensated = true;
+  if (r.skipped == DeskewSkip::kNoSpan) return;  // an instantaneous scan: nothing to correct
+  std::lock_guard<std::mutex> s(stats_mutex_);
+  if (r.applied()) {
+    ++stats_.keyframes_deskewed;
+    stats_.deskew_max_correction = std::max(stats_.deskew_max_correction, r.max_correction);
+  } else {
+    ++stats_.deskew_skipped;
+  }
+}
+
+void LoopdEngine::complete(std::int64_t sequence, ReadyKeyframe keyframe) {
+  std::unique_lock<std::mutex> lock(sequence_mutex_);
+  ready_.emplace(sequence, std::move(keyframe));
+  completed_.fetch_add(1);
+  ready_backlog_.store(static_cast<int>(ready_.size()));
+  sequence_ready(lock);
+}
+
+void LoopdEngine::sequence_ready(std::unique_lock<std::mutex>& lock) {
+  if (sequencing_) return;  // the thread that is sequencing takes it (checked and cleared under the same lock)
+  sequencing_ = true;
+  // The sequential stage runs strictly in keyframe order, so live and replay runs make the same decisions.
+  while (!ready_.empty() && ready_.begin()->first == next_to_sequence_) {
+    ReadyKeyframe item = std::move(ready_.begin()->second);
+    ready_.erase(ready_.begin());
+    ready_backlog_.store(static_cast<int>(ready_.size()));
+    lock.unlock();
+    {
+      std::lock_guard<std::mutex> q(queue_mutex_);  // a blocked submit() may now have room
+    }
+    space_cv_.notify_one();
+    run_sequential(item);
+    lock.lock();
+    ++next_to_sequence_;
+    sequential_steps_.fetch_add(1);
+    sequenced_.fetch_add(1);
+  }
+  sequencing_ = false;
+  lock.unlock();
+  done_cv_.notify_all();
+}
+
+void LoopdEngine::run_sequential(ReadyKeyframe& item) {
+  // Other vehicles' keyframes read since the last keyframe become candidates first (a fleet on one map).
+  if (remote_feed_)
+    for (KeyframeRecord& remote : remote_feed_()) detector_.add_remote_keyframe(std::move(remote));
+  // Each decision goes out as soon as it is made; an accepted loop's correction follows.
+  DetectorOutput out = detector_.add_keyframe(
+      item.input, item.features,
+      [this](const LoopDecision& d) {
+        sequential_steps_.fetch_add(1);
+        sink_->on_decision(d);
+      },
+      [this, &item](const KeyframeRecord& k, const Eigen::Isometry3d& T_map_sensor) { sink_->on_keyframe(k, T_map_sensor, item.map_cloud); });
+  item.map_cloud.reset();
+  if (out.correction) sink_->on_correction(*out.correction);
+  sink_->on_keyframe_decided(item.input.key);
+  if (out.correction && out.correction->graph_solved) {  // after a solve
+    release_free_heap();
+    page_out_library_code(kCompilerLibraries);  // PoCL compiles a kernel variant now and then
+  }
+  std::lock_guard<std::mutex> s(stats_mutex_);
+  stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
+  stats_.loops_accepted = detector_.loops_accepted();
+  stats_.loops_rejected = detector_.loops_rejected();
+  stats_.steps_measured = detector_.steps_measured();
+  stats_.steps_refused = detector_.steps_refused();
+  stats_.steps_skewed = detector_.steps_skewed();
+  stats_.bytes_per_keyframe = static_cast<std::int64_t>(detector_.bytes_per_keyframe());
+  stats_.cached_feature_bytes = static_cast<std::int64_t>(detector_.cached_feature_bytes());
+  T_map_odom_ = detector_.T_map_odom();
+}
+
+void LoopdEngine::finish() {
+  handle_associated(associator_.flush());
+  {
+    std::lock_guard<std::mutex> s(stats_mutex_);
+    stats_.dropped_no_pose = associator_.dropped_no_pose();
+    stats_.pending_scans = 0;
+  }
+  {
+    std::unique_lock<std::mutex> lock(done_mutex_);
+    while (!done_cv_.wait_for(lock, std::chrono::milliseconds(20), [&] { return sequenced_.load() >= next_sequence_; })) {}
+  }
+  // Every keyframe is sequenced and no worker calls the sink any more.
+  if (auto c = detector_.final_correction()) {
+    sink_->on_final_correction(*c);
+    std::lock_guard<std::mutex> s(stats_mutex_);
+    T_map_odom_ = detector_.T_map_odom();
+  }
+}
+
+EngineStats LoopdEngine::stats() const {
+  EngineStats s;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    s = stats_;
+  }
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  s.queue_depth = static_cast<int>(queue_.size()) + busy_;
+  return s;
+}
+
+EngineProgress LoopdEngine::progress() const {
+  EngineProgress p;
+  p.sequential.steps = sequential_steps_.load();
+  p.sequential.pending = completed_.load() > sequenced_.load();
+  p.workers.steps = worker_steps_.load();
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  p.workers.pending = !queue_.empty() || busy_ > 0;
+  return p;
+}
+
+Eigen::Isometry3d LoopdEngine::T_map_odom() const {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  return T_map_odom_;
+}
+
+}  // namespace loopd

@@ -1,0 +1,34 @@
+#include "loopd/runtime/node_config.hpp"
+#include "loopd/store/store_uri.hpp"
+
+#include <cmath>
+
+namespace loopd {
+
+std::optional<std::string> TrajectoryPublisherConfig::validate() const {
+  if (!(min_move >= 0.0 && std::isfinite(min_move))) return "output.trajectory_min_move must be a finite number >= 0 [m]";
+  if (!(min_turn_deg >= 0.0 && min_turn_deg <= 180.0)) return "output.trajectory_min_turn_deg must be in [0, 180] [deg]";
+  if (!(snapshot_period >= 0.0 && snapshot_period <= 1e6)) return "output.trajectory_snapshot_period must be in [0, 1e6] [s]";
+  return std::nullopt;
+}
+
+std::optional<std::string> NodeConfig::validate() const {
+  if (lcm_url.empty()) return "lcm_url must not be empty";
+  for (const auto* c : {&scan_channel, &pose_channel, &loop_event_channel, &trajectory_channel, &status_channel})
+    if (c->empty()) return "channels: channel names must not be empty";
+  if (input_queue_capacity < 1) return "input_queue_capacity must be >= 1";
+  if (log_every_n < 1) return "log_every_n must be >= 1";
+  if (!(status_period > 0.0 && status_period <= 1e6)) return "status_period must be in (0, 1e6] [s]";
+  if (!(watchdog_stall > 0.0 && watchdog_stall <= 1e6)) return "watchdog_stall must be in (0, 1e6] [s]";
+  if (!map.uri.empty())
+    if (auto e = map.validate()) return "map: " + *e;
+  if (!(map_cache_mb >= 0.0 && map_cache_mb <= 1e7)) return "map.cache_mb must be in [0, 1e7] [MB]";
+  if (auto e = trajectory_output.validate()) return *e;
+  if (auto e = fleet.validate()) return *e;
+  if (fleet.vehicle >= 0 && !names_shared_map(map.uri)) return "fleet.vehicle needs a shared map (map.path postgresql://...)";
+  if (max_buffered_keyframes < 1) return "map.max_buffered_keyframes must be >= 1";
+  if (!(map_retry_period >= 0.1 && map_retry_period <= 600.0)) return "map.retry_period must be in [0.1, 600] s";
+  return std::nullopt;
+}
+
+}  // namespace loopd

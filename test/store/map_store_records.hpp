@@ -1,0 +1,135 @@
+#pragma once
+// Shared by the map store tests of every back end: records with awkward values (poses with all 12 numbers set, NaN
+// fields, information matrices), a small two-session map, and exact comparisons.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <optional>
+#include <vector>
+
+#include "loopd/store/map_store.hpp"
+#include "map_test_scene.hpp"
+
+namespace loopd::map_test {
+
+#define REQUIRE_OK(expr)                              \
+  do {                                                \
+    const StoreStatus st_ = (expr);                   \
+    INFO(to_string(st_.code) << ": " << st_.message); \
+    REQUIRE(st_.ok());                                \
+  } while (0)
+
+inline Eigen::Isometry3d pose(double x, double yaw) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d(0.1, 0.2, 0.97).normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(x, -0.3 * x, 0.01 * x + 1e-9);
+  return T;
+}
+
+inline SessionRecord session(SessionId id) {
+  SessionRecord s;
+  s.id = id;
+  s.first_utime = 1700000000000000 + id;
+  s.sensor = "hdl64";
+  s.source = "replay drive_" + std::to_string(id) + ".lcmlog";
+  s.T_map_session = pose(3.5 * id, 0.1 * id);
+  s.anchored = id == 0;
+  return s;
+}
+
+inline MapKeyframe keyframe(SessionId s, std::int64_t i, std::shared_ptr<const KeyframeFeatures> features) {
+  MapKeyframe k;
+  k.record.key = KeyframeKey{s, i};
+  k.record.utime = 1700000000000000 + 100000 * i + s;
+  k.record.T_odom_sensor = pose(1.7 * static_cast<double>(i), 0.013 * static_cast<double>(i));
+  k.record.residual = 0.031 * static_cast<double>(i + 1);
+  k.record.travelled = 2.0 * static_cast<double>(i) + 0.5 * s;
+  if (i % 2 == 1) {  // every other keyframe's step measured by the scans
+    MeasuredStep step;
+    step.T_previous_this = pose(1.7, 0.013 + 0.001 * s);
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) step.information(r, c) = r == c ? 1e4 + i : 1.0 / (r + c + 2.0);
+    k.record.step = step;
+  }
+  k.record.features = std::move(features);
+  k.T_map_sensor = pose(1.7 * static_cast<double>(i) + 0.2, 0.013 * static_cast<double>(i) + 0.001);
+  return k;
+}
+
+inline LoopDecision loop(std::int64_t event, KeyframeKey query, KeyframeKey match, bool accepted) {
+  LoopDecision l;
+  l.event_id = event;
+  l.query = query;
+  l.match = match;
+  l.query_utime = 1000 + event;
+  l.match_utime = 17 + event;
+  l.status = accepted ? LoopStatus::kAccepted : LoopStatus::kRejected;
+  l.stage = accepted ? "accepted" : "gicp";
+  l.reason = accepted ? "" : "fitness 0.31 < 0.5";
+  l.gate_distance = 3.25;
+  l.gate_radius = 12.5;
+  l.descriptor_distance = 0.1234567;
+  l.lcp_fraction = 0.77;
+  l.icp_residual = 0.0456;
+  l.icp_fitness = 0.91;
+  l.hungarian_consistency = 0.66;
+  l.degeneracy = std::nan("");
+  l.T_match_query = pose(0.42, -0.05);
+  if (accepted) {
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) l.information(r, c) = r == c ? 1000.0 + r : 1.0 / (r + c + 3.0);
+  }
+  return l;
+}
+
+inline void require_same_loop(const LoopDecision& a, const LoopDecision& b) {
+  CHECK(a.event_id == b.event_id);
+  CHECK(a.query == b.query);
+  CHECK(a.match == b.match);
+  CHECK(a.query_utime == b.query_utime);
+  CHECK(a.match_utime == b.match_utime);
+  CHECK(a.status == b.status);
+  CHECK(a.stage == b.stage);
+  CHECK(a.reason == b.reason);
+  for (auto [x, y] : {std::pair{a.gate_distance, b.gate_distance},
+                      {a.gate_radius, b.gate_radius},
+                      {a.descriptor_distance, b.descriptor_distance},
+                      {a.lcp_fraction, b.lcp_fraction},
+                      {a.icp_residual, b.icp_residual},
+                      {a.icp_fitness, b.icp_fitness},
+                      {a.hungarian_consistency, b.hungarian_consistency}}) {
+    CHECK(same_bits(x, y));
+  }
+  CHECK(std::isnan(b.degeneracy) == std::isnan(a.degeneracy));
+  CHECK(same_pose(a.T_match_query, b.T_match_query));
+  CHECK(std::memcmp(a.information.data(), b.information.data(), 36 * sizeof(double)) == 0);
+}
+
+inline std::vector<MapKeyframe> load(MapStore& store, std::optional<SessionId> session, KeyframeLoad depth) {
+  std::vector<MapKeyframe> out;
+  REQUIRE_OK(store.for_each_keyframe(session, depth, [&](MapKeyframe&& k) { out.push_back(std::move(k)); }));
+  return out;
+}
+
+inline std::vector<LoopDecision> loops(MapStore& store, bool accepted_only) {
+  std::vector<LoopDecision> out;
+  REQUIRE_OK(store.for_each_loop(accepted_only, [&](LoopDecision&& l) { out.push_back(std::move(l)); }));
+  return out;
+}
+
+/// @brief Sessions 0 and 1 with three keyframes each (index 1 of session 1 has no features), features of real scans.
+inline void fill(MapStore& store, std::map<std::pair<SessionId, std::int64_t>, MapKeyframe>* written = nullptr) {
+  REQUIRE_OK(store.put_session(session(0)));
+  REQUIRE_OK(store.put_session(session(1)));
+  for (SessionId s : {0, 1}) {
+    for (std::int64_t i = 0; i < 3; ++i) {
+      const bool shed = s == 1 && i == 1;
+      MapKeyframe k = keyframe(s, i, shed ? nullptr : scan_features(static_cast<int>(3 * s + i)));
+      REQUIRE_OK(store.put_keyframe(k));
+      if (written) (*written)[{s, i}] = k;
+    }
+  }
+}
+
+}  // namespace loopd::map_test
