@@ -36,7 +36,7 @@ TEST_CASE("store URI: every form names its back end and what that back end opens
   }
 }
 
-TEST_CASE("store registry: the back ends registered themselves; an unknown scheme is refused naming them") {
+TEST_CASE("store registry: the back ends registered themselves, and an unknown scheme is refused naming them") {
   const MapStoreBackend* sqlite = find_map_store_backend("sqlite");
   REQUIRE(sqlite != nullptr);
   CHECK_FALSE(sqlite->shared);

@@ -1,4 +1,6 @@
 #include "loopd/runtime/node_config.hpp"
+
+#include "loopd/runtime/config_binder.hpp"
 #include "loopd/store/store_uri.hpp"
 
 #include <cmath>
@@ -29,6 +31,32 @@ std::optional<std::string> NodeConfig::validate() const {
   if (max_buffered_keyframes < 1) return "map.max_buffered_keyframes must be >= 1";
   if (!(map_retry_period >= 0.1 && map_retry_period <= 600.0)) return "map.retry_period must be in [0.1, 600] s";
   return std::nullopt;
+}
+
+void bind(Binder& b, NodeConfig& n) {
+  b.field("lcm_url", n.lcm_url);
+  b.field("channels.scan", n.scan_channel);
+  b.field("channels.pose", n.pose_channel);
+  b.field("channels.loop_event", n.loop_event_channel);
+  b.field("channels.trajectory", n.trajectory_channel);
+  b.field("channels.status", n.status_channel);
+  b.field("input_queue_capacity", n.input_queue_capacity);
+  b.field("log_every_n", n.log_every_n);
+  b.field("status_period", n.status_period);
+  b.field("watchdog_stall", n.watchdog_stall);
+  b.choice("log_level", n.log_level, {{"error", LogLevel::kError}, {"warn", LogLevel::kWarn}, {"info", LogLevel::kInfo}});
+  b.field("map.path", n.map.uri);
+  b.field("map.synchronous", n.map.synchronous);
+  b.field("map.cache_mb", n.map_cache_mb);
+  b.field("map.max_buffered_keyframes", n.max_buffered_keyframes);
+  b.field("map.retry_period", n.map_retry_period);
+  b.field("fleet.vehicle", n.fleet.vehicle);
+  b.field("fleet.poll_interval", n.fleet.poll_interval);
+  b.field("fleet.solve_every_keyframes", n.fleet.solve_every_keyframes);
+  b.field("fleet.flush_timeout", n.fleet.flush_timeout);
+  b.field("output.trajectory_min_move", n.trajectory_output.min_move);
+  b.field("output.trajectory_min_turn_deg", n.trajectory_output.min_turn_deg);
+  b.field("output.trajectory_snapshot_period", n.trajectory_output.snapshot_period);
 }
 
 }  // namespace loopd

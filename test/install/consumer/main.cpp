@@ -4,6 +4,7 @@
 #include "loopd/base/cloud_ops.hpp"
 #include "loopd/correction/loop_corrector.hpp"
 #include "loopd/descriptor/m2dp.hpp"
+#include "loopd/store/map_store.hpp"
 
 int main() {
   loopd::PointCloud cloud;
@@ -13,6 +14,11 @@ int main() {
   config.backend = loopd::Backend::kCpu;
   const loopd::M2dpResult d = loopd::M2dp(config).compute(cloud);
   loopd::loop_event_t event{};
-  std::cout << "voxels " << down.size() << " descriptor " << d.descriptor.size() << " event " << event.getEncodedSize() << "\n";
-  return down.size() == 125 && d.ok && d.descriptor.size() == 192 ? 0 : 1;
+  // The store's back ends register themselves: the installed package links them whole (loopd_store_backends).
+  loopd::MapStoreConfig map;
+  map.uri = "sqlite::memory:";
+  const loopd::OpenedMapStore opened = loopd::open_map_store(map);
+  std::cout << "voxels " << down.size() << " descriptor " << d.descriptor.size() << " event " << event.getEncodedSize() << " map stores "
+            << loopd::map_store_schemes() << (opened.status.ok() ? "" : " (" + opened.status.message + ")") << "\n";
+  return down.size() == 125 && d.ok && d.descriptor.size() == 192 && opened.status.ok() ? 0 : 1;
 }
