@@ -2,6 +2,7 @@
 // drive, without LCM transport: replay throughput (x real time), scan-to-event latency when a loop is verified, shed
 // keyframes at a paced speed, and memory per stored keyframe.
 // Targets (issue #8): replay >= 10x real time; at 1x no keyframe shed and latency p99 <= 200 ms; <= 150 KB per keyframe.
+// --profile: where the replay's time went, stage by stage (issue 32).
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
@@ -16,6 +17,7 @@
 #include "message_convert.hpp"
 #include "tool_output.hpp"
 #include "exit_codes.hpp"
+#include "loopd/base/stopwatch.hpp"
 
 using namespace loopd;
 using loopd::tools::fmt;
@@ -116,41 +118,26 @@ RunResult run_once(const std::vector<Input>& inputs, const EngineConfig& base, d
   return r;
 }
 
-}  // namespace
-
-int run_bench_pipeline(int argc, char** argv) {
-  CLI::App app("loopd-bench pipeline: the engine on a recorded drive (replay speed, latency, shedding, memory)", "loopd-bench pipeline");
-  std::string drive, sensor = "hdl64";
-  int threads = 0, max_scans = 0;
-  double paced_speed = 1.0;
-  bool json = false, skip_paced = false;
-  app.add_option("--drive", drive, "lcm-logger file with LIDAR_SCAN and ODOMETRY_POSE (e.g. from loopd-sim)")->required();
-  app.add_option("--sensor", sensor, "lidar model preset")->capture_default_str();
-  app.add_option("--threads", threads, "worker threads (0 = hardware threads)")->capture_default_str();
-  app.add_option("--max-scans", max_scans, "use only the first N scans (0 = all)")->capture_default_str();
-  app.add_option("--paced-speed", paced_speed, "speed of the paced (live-policy) run; 1 = real time")->capture_default_str();
-  app.add_flag("--no-paced", skip_paced, "only the replay run");
-  app.add_flag("--json", json, "one JSON object as the last stdout line");
-  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
-
+/// The drive's scans and poses, decoded as loopd decodes them (bounded decode, message -> cloud), with the time that
+/// took [ms]. False (the reason printed) when the drive cannot be read or holds fewer than 2 scans.
+bool read_inputs(const std::string& drive, int max_scans, std::vector<Input>* inputs, int* scans, double* decode_ms) {
   LogReader reader;
   std::string error;
   if (!reader.open(drive, &error)) {
     std::cerr << "loopd-bench pipeline: " << error << "\n";
-    return 1;
+    return false;
   }
-  std::vector<Input> inputs;
   LogEvent ev;
-  int scans = 0;
   while (reader.next(&ev)) {
     Input in;
+    const Stopwatch sw;
     if (ev.channel == channels::kScan) {
-      if (max_scans > 0 && scans >= max_scans) break;
+      if (max_scans > 0 && *scans >= max_scans) break;
       point_cloud_t m;
       if (!LogReader::decode(ev, &m) || !from_message(m, &in.cloud, &error)) continue;
       in.is_scan = true;
       in.utime = m.utime;
-      ++scans;
+      ++*scans;
     } else if (ev.channel == channels::kPose) {
       pose_t m;
       if (!LogReader::decode(ev, &m) || !from_message(m, &in.pose, &error)) continue;
@@ -158,12 +145,76 @@ int run_bench_pipeline(int argc, char** argv) {
     } else {
       continue;
     }
-    inputs.push_back(std::move(in));
+    *decode_ms += sw.ms();
+    inputs->push_back(std::move(in));
   }
-  if (scans < 2) {
+  if (*scans < 2) {
     std::cerr << "loopd-bench pipeline: " << drive << " holds fewer than 2 scans on " << channels::kScan << "\n";
-    return 1;
+    return false;
   }
+  return true;
+}
+
+/// Where the replay's time went, by stage, per scan and per keyframe (EngineProfile; decoding measured while reading).
+nlohmann::json print_profile(const RunResult& r, int scans, double decode_ms) {
+  const EngineProfile& p = r.stats.profile;
+  struct Row {
+    const char* key;
+    const char* name;
+    const char* thread;
+    double ms;
+  };
+  const std::vector<Row> rows = {{"decode", "decode (bounded, message -> cloud)", "LCM / ingest", decode_ms},
+                                 {"ingest", "checks, association, keyframe rule, reference scans", "ingest", p.ingest_ms},
+                                 {"sweep_motion", "sweep motion measured by the scans", "worker", p.sweep_motion_ms},
+                                 {"deskew", "deskew (and the keyframe scan's copy)", "worker", p.deskew_ms},
+                                 {"descriptors", "descriptors (M2DP, Scan Context)", "worker", p.descriptor_ms},
+                                 {"prepare", "prepare (range image, segmentation, voxels, normals)", "worker", p.prepare_ms},
+                                 {"map_cloud", "map cloud (reduce, encode)", "worker", p.map_cloud_ms},
+                                 {"detector", "step, gate, ranking, bookkeeping", "sequential", p.sequential_ms - p.verify_ms - p.correction_ms},
+                                 {"verification", "verification (4PCS, GICP, Hungarian)", "sequential", p.verify_ms},
+                                 {"correction", "correction (heuristic, pose graph)", "sequential", p.correction_ms}};
+  const double keyframes = static_cast<double>(std::max<std::int64_t>(1, p.keyframes_prepared));
+  tools::Table t({"stage", "thread", "total [s]", "ms per scan", "ms per keyframe", "% of one core at 1x"});
+  nlohmann::json j = nlohmann::json::object();
+  double total = 0.0;
+  auto add = [&](const std::string& name, const std::string& thread, double ms) {
+    t.add({name, thread, fmt(ms * 1e-3, 2), fmt(ms / scans, 2), fmt(ms / keyframes, 2), fmt(100.0 * ms * 1e-3 / r.data_s, 1)});
+  };
+  for (const Row& row : rows) {
+    add(row.name, row.thread, row.ms);
+    j[row.key] = row.ms;
+    total += row.ms;
+  }
+  add("total", "", total);
+  std::cout << "where the replay's time went (" << scans << " scans, " << p.keyframes_prepared << " keyframes prepared, " << fmt(r.data_s, 1)
+            << " s of data):\n"
+            << t.str();
+  return j;
+}
+
+}  // namespace
+
+int run_bench_pipeline(int argc, char** argv) {
+  CLI::App app("loopd-bench pipeline: the engine on a recorded drive (replay speed, latency, shedding, memory)", "loopd-bench pipeline");
+  std::string drive, sensor = "hdl64";
+  int threads = 0, max_scans = 0;
+  double paced_speed = 1.0;
+  bool json = false, skip_paced = false, profile = false;
+  app.add_option("--drive", drive, "lcm-logger file with LIDAR_SCAN and ODOMETRY_POSE (e.g. from loopd-sim)")->required();
+  app.add_option("--sensor", sensor, "lidar model preset")->capture_default_str();
+  app.add_option("--threads", threads, "worker threads (0 = hardware threads)")->capture_default_str();
+  app.add_option("--max-scans", max_scans, "use only the first N scans (0 = all)")->capture_default_str();
+  app.add_option("--paced-speed", paced_speed, "speed of the paced (live-policy) run; 1 = real time")->capture_default_str();
+  app.add_flag("--no-paced", skip_paced, "only the replay run");
+  app.add_flag("--profile", profile, "also print where the replay's time went, stage by stage (ms per scan and per keyframe)");
+  app.add_flag("--json", json, "one JSON object as the last stdout line");
+  if (auto rc = loopd::tools::parse_command_line(app, argc, argv)) return *rc;
+
+  std::vector<Input> inputs;
+  int scans = 0;
+  double decode_ms = 0.0;
+  if (!read_inputs(drive, max_scans, &inputs, &scans, &decode_ms)) return 1;
 
   EngineConfig config;
   config.detector.sensor = sensor;
@@ -195,6 +246,7 @@ int run_bench_pipeline(int argc, char** argv) {
   row("peak RSS [MB]", fmt(static_cast<double>(replay.peak_rss) / 1e6, 0), fmt(static_cast<double>(paced.peak_rss) / 1e6, 0));
   row("descriptor device", replay.stats.device, paced.stats.device);
   std::cout << t.str();
+  const nlohmann::json profile_ms = profile ? print_profile(replay, scans, decode_ms) : nlohmann::json();
   if (json) {
     // p99 with the sample sizes here (tens to hundreds of verified keyframes) is the max or next to it.
     nlohmann::json j{{"scans", scans},
@@ -205,6 +257,7 @@ int run_bench_pipeline(int argc, char** argv) {
                      {"bytes_per_keyframe", replay.stats.bytes_per_keyframe},
                      {"peak_rss_bytes", replay.peak_rss},
                      {"device", replay.stats.device}};
+    if (profile) j["profile_ms"] = profile_ms;
     if (!skip_paced) {
       j["paced_speed"] = paced_speed;
       j["paced_shed"] = paced.stats.shed;

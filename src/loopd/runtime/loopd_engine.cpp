@@ -1,5 +1,7 @@
 #include "loopd/runtime/loopd_engine.hpp"
 
+#include "loopd/base/stopwatch.hpp"
+
 #include "loopd/base/scan_fingerprint.hpp"
 #include "loopd/base/scene_scale.hpp"
 
@@ -74,6 +76,16 @@ LoopdEngine::~LoopdEngine() {
 }
 
 bool LoopdEngine::push_scan(std::int64_t utime, PointCloud cloud, double arrival_s) {
+  const Stopwatch sw;
+  const double waited_before = submit_wait_ms_;
+  const bool accepted = ingest_scan(utime, std::move(cloud), arrival_s);
+  const double ms = sw.ms() - (submit_wait_ms_ - waited_before);
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.profile.ingest_ms += ms;
+  return accepted;
+}
+
+bool LoopdEngine::ingest_scan(std::int64_t utime, PointCloud cloud, double arrival_s) {
   std::size_t finite = 0;
   for (const auto& p : cloud.points) finite += p.allFinite() ? 1u : 0u;
   const bool too_large = static_cast<std::int64_t>(cloud.size()) > config_.max_points_per_scan;
@@ -271,6 +283,7 @@ void LoopdEngine::keep_features_in_store(MapStore& store, std::size_t cache_byte
 
 void LoopdEngine::submit(Job job) {
   std::unique_lock<std::mutex> lock(queue_mutex_);
+  const Stopwatch waiting;
   if (config_.block_when_full) {
     space_cv_.wait(lock, [&] { return !full() || stopping_; });
   } else {
@@ -278,6 +291,7 @@ void LoopdEngine::submit(Job job) {
     // LCM thread keeps receiving into its own bounded input queue meanwhile.
     space_cv_.wait(lock, [&] { return ready_backlog_.load() < ready_capacity() || stopping_; });
   }
+  submit_wait_ms_ += waiting.ms();  // the ingest thread's own counter (EngineProfile::ingest_ms leaves it out)
   if (!config_.block_when_full && static_cast<int>(queue_.size()) >= config_.queue_capacity) {
     // Load shedding (live): the oldest waiting keyframe keeps its pose but skips features and verification.
     Job shed = std::move(queue_.front());
@@ -308,23 +322,36 @@ void LoopdEngine::worker_loop() {
       ++busy_;
     }
     space_cv_.notify_one();
+    Stopwatch sw;
     if (job.raw) {
       job.cloud = job.raw->cloud;
       job.raw.reset();
     }
-    deskew_scan(job);
+    const double sweep_motion_ms = deskew_scan(job);
     merge_submap_scans(job);
+    const double deskew_ms = sw.ms() - sweep_motion_ms;
+    sw.reset();
     auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud));
     note_sensor(*features);
+    const double features_ms = sw.ms();
+    sw.reset();
     MapCloudBlob map_cloud;
     if (map_clouds_)
       map_cloud = std::make_shared<const std::vector<std::uint8_t>>(
           encode_map_cloud(reduce_to_map_cloud(job.cloud, config_.map_cloud), config_.map_cloud.quantum, config_.map_cloud.zstd_level));
+    const double map_cloud_ms = sw.ms();
     job.cloud = PointCloud();
     worker_steps_.fetch_add(1);
-    if (!features->ok) {
+    {
       std::lock_guard<std::mutex> s(stats_mutex_);
-      ++stats_.feature_failures;
+      if (!features->ok) ++stats_.feature_failures;
+      EngineProfile& p = stats_.profile;
+      p.sweep_motion_ms += sweep_motion_ms;
+      p.deskew_ms += deskew_ms;
+      p.descriptor_ms += features->ms_descriptor;
+      p.prepare_ms += features_ms - features->ms_descriptor;
+      p.map_cloud_ms += map_cloud_ms;
+      ++p.keyframes_prepared;
     }
     complete(job.sequence, ReadyKeyframe{job.input, features, std::move(map_cloud)});
     {
@@ -413,22 +440,25 @@ std::vector<StampedPose> LoopdEngine::sweep_poses_from_scans(const Job& job) {
   return {a, b};
 }
 
-void LoopdEngine::deskew_scan(Job& job) {
-  if (!job.cloud.has_time()) return;  // scans without times stay as they came, bit for bit
+double LoopdEngine::deskew_scan(Job& job) {
+  if (!job.cloud.has_time()) return 0.0;  // scans without times stay as they came, bit for bit
   if (!config_.deskew.enabled) {
     const auto [first, last] = time_span(job.cloud);
     if (first == 0.0 && last == 0.0) job.input.motion_compensated = true;  // an instantaneous scan: free of skew anyway
-    return;
+    return 0.0;
   }
+  double sweep_motion_ms = 0.0;
   if (config_.deskew_from_scans) {
+    const Stopwatch sw;
     std::vector<StampedPose> measured = sweep_poses_from_scans(job);
+    sweep_motion_ms = sw.ms();
     if (!measured.empty()) job.sweep_poses = std::move(measured);
   }
   job.previous.reset();
   const DeskewResult r = deskew(config_.deskew, job.sweep_poses, job.input.utime, &job.cloud);
   job.sweep_poses = {};
   if (r.applied() || r.skipped == DeskewSkip::kNoSpan) job.input.motion_compensated = true;
-  if (r.skipped == DeskewSkip::kNoSpan) return;  // an instantaneous scan: nothing to correct
+  if (r.skipped == DeskewSkip::kNoSpan) return sweep_motion_ms;  // an instantaneous scan: nothing to correct
   std::lock_guard<std::mutex> s(stats_mutex_);
   if (r.applied()) {
     ++stats_.keyframes_deskewed;
@@ -436,6 +466,7 @@ void LoopdEngine::deskew_scan(Job& job) {
   } else {
     ++stats_.deskew_skipped;
   }
+  return sweep_motion_ms;
 }
 
 void LoopdEngine::complete(std::int64_t sequence, ReadyKeyframe keyframe) {
@@ -475,13 +506,17 @@ void LoopdEngine::run_sequential(ReadyKeyframe& item) {
   if (remote_feed_)
     for (KeyframeRecord& remote : remote_feed_()) detector_.add_remote_keyframe(std::move(remote));
   // Each decision goes out as soon as it is made; an accepted loop's correction follows.
+  const Stopwatch sw;
+  double verify_ms = 0.0;
   DetectorOutput out = detector_.add_keyframe(
       item.input, item.features,
-      [this](const LoopDecision& d) {
+      [this, &verify_ms](const LoopDecision& d) {
+        verify_ms += d.ms_total - d.ms_descriptor;
         sequential_steps_.fetch_add(1);
         sink_->on_decision(d);
       },
       [this, &item](const KeyframeRecord& k, const Eigen::Isometry3d& T_map_sensor) { sink_->on_keyframe(k, T_map_sensor, item.map_cloud); });
+  const double detector_ms = sw.ms();
   item.map_cloud.reset();
   if (out.correction) sink_->on_correction(*out.correction);
   sink_->on_keyframe_decided(item.input.key);
@@ -490,6 +525,9 @@ void LoopdEngine::run_sequential(ReadyKeyframe& item) {
     page_out_library_code(kCompilerLibraries);  // PoCL compiles a kernel variant now and then
   }
   std::lock_guard<std::mutex> s(stats_mutex_);
+  stats_.profile.sequential_ms += detector_ms;
+  stats_.profile.verify_ms += verify_ms;
+  if (out.correction) stats_.profile.correction_ms += out.correction->ms;
   stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
   stats_.loops_accepted = detector_.loops_accepted();
   stats_.loops_rejected = detector_.loops_rejected();

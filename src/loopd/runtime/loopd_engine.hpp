@@ -95,6 +95,21 @@ class ForwardingSink : public EngineSink {
 };
 
 /// @brief Counters reported in status_t.
+/// @brief Where the engine's time went, summed over the run [ms] (loopd-bench pipeline --profile). Thread CPU time
+/// spent in each stage, not waits: the ingest thread's time excludes waiting for room in the worker queue.
+struct EngineProfile {
+  double ingest_ms = 0;                 ///< push_scan without the wait: checks, association, keyframe rule, reference scans (per scan)
+  double sweep_motion_ms = 0;           ///< worker: a keyframe sweep's motion measured by the scans (deskew.from_scans)
+  double deskew_ms = 0;                 ///< worker: deskew of the keyframe scan (and copying the shared raw scan)
+  double descriptor_ms = 0;             ///< worker: M2DP and the Scan Context descriptors
+  double prepare_ms = 0;                ///< worker: range image, segmentation, voxel cloud, normals, sensor layout
+  double map_cloud_ms = 0;              ///< worker: the keyframe's map cloud, reduced and encoded
+  double sequential_ms = 0;             ///< LoopDetector::add_keyframe: the keyframe's step, gate, ranking, verification, correction
+  double verify_ms = 0;                 ///< of it: candidates verified (4PCS, GICP, Hungarian)
+  double correction_ms = 0;             ///< of it: corrections (heuristic and pose graph)
+  std::int64_t keyframes_prepared = 0;  ///< keyframes the workers prepared (not shed)
+};
+
 struct EngineStats {
   std::int64_t scans_in = 0, poses_in = 0;
   std::int64_t invalid_scans = 0;    ///< empty, all non-finite, too large, duplicate or out-of-order utime
@@ -129,6 +144,7 @@ struct EngineStats {
   std::int64_t sweeps_from_odometry = 0;     ///< keyframes that tried and kept the odometry's motion (scans disagreed, did not register)
   std::int64_t sweeps_velocity_changed = 0;  ///< of sweeps_from_scans: the previous sweep at its own velocity (the odometry's changed)
   std::string device;
+  EngineProfile profile;
 };
 
 /// @brief Liveness of the engine's two stages (for the systemd watchdog, see PipelineWatchdog).
@@ -197,6 +213,7 @@ class LoopdEngine {
   bool moved_little_since_last_scan(const Eigen::Isometry3d& T_odom_sensor);
   void update_input_health();
   void submit(Job job);
+  bool ingest_scan(std::int64_t utime, PointCloud cloud, double arrival_s);
   /// Finished keyframes that may wait for the sequential stage: replay allows 16x queue_capacity (features only,
   /// ~0.1 MB each, and kept afterwards anyway) so the workers run ahead through a stretch of long verifications; live
   /// allows 4x, which bounds how far decisions lag behind the stream.
@@ -206,7 +223,8 @@ class LoopdEngine {
   bool full() const { return static_cast<int>(queue_.size()) >= config_.queue_capacity || ready_backlog_.load() >= ready_capacity(); }
   void worker_loop();
   /// Deskews the job's scan in place (deskew on, scan with per-point times) and counts what it did.
-  void deskew_scan(Job& job);
+  /// Deskews the keyframe scan; returns the [ms] spent measuring the sweep motion by the scans.
+  double deskew_scan(Job& job);
   /// The earlier scans of a narrow or sparse sensor merged into the keyframe's cloud (after deskew_scan).
   void merge_submap_scans(Job& job);
   /// Keeps a scan in the window of later keyframes' submaps (ingest thread).
@@ -246,6 +264,7 @@ class LoopdEngine {
   bool map_clouds_ = false;
   std::atomic<std::int64_t> keyframes_skipped_{0};
   double residual_since_keyframe_ = 0.0;
+  double submit_wait_ms_ = 0.0;  ///< [ms] the ingest thread waited for room in the worker queue (its own counter)
 
   mutable std::mutex queue_mutex_;
   std::condition_variable queue_cv_;
