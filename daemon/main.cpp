@@ -77,7 +77,7 @@ void print_summary(const loopd::RunSummary& s, bool replay) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  loopd::serve_large_allocations_by_mmap();
+  loopd::keep_large_allocations_in_heap();
   CLI::App app{
       "loopd: lidar loop-closure daemon. Listens for scans and odometry poses on LCM, detects and verifies loops\n"
       "(M2DP + plane-based 4PCS + GICP + Hungarian check), publishes loop events and corrected trajectories."};

@@ -19,9 +19,11 @@ void release_free_heap() {
 #endif
 }
 
-void serve_large_allocations_by_mmap() {
+void keep_large_allocations_in_heap() {
 #if defined(__GLIBC__)
-  mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+  constexpr int kLargest = 64 * 1024 * 1024;
+  mallopt(M_MMAP_THRESHOLD, kLargest);
+  mallopt(M_TRIM_THRESHOLD, kLargest);
 #endif
 }
 

@@ -13,12 +13,14 @@ namespace loopd {
 /// after a solve, not per message.
 void release_free_heap();
 
-/// @brief Serves every allocation of 128 KiB or more (scan buffers, keyframe features, solver matrices) from its own
-/// mapping, returned to the system when freed (glibc's M_MMAP_THRESHOLD, fixed; a no-op elsewhere). Otherwise glibc
-/// raises the threshold as such blocks are freed and carves them from its arenas, where long-lived cached features
-/// and short-lived scans leave holes: on a 20 km VLP-16 drive (8000 keyframes, 64 MB feature cache) the resident
-/// memory after the warm-up fell from ~320 MB to ~230 MB. Call once at start, before threads are made.
-void serve_large_allocations_by_mmap();
+/// @brief Keeps allocations up to 64 MiB (scan buffers, keyframe features, solver matrices) in malloc's heap, where a
+/// freed scan's pages serve the next scan, and trims the heap's top only past 64 MiB (glibc's M_MMAP_THRESHOLD and
+/// M_TRIM_THRESHOLD, fixed; a no-op elsewhere). Serving them from a mapping of their own each (the policy before,
+/// M_MMAP_THRESHOLD 128 KiB, for a lower resident size on long drives) cost a fresh zeroed mapping, a page fault per
+/// 4 KiB page and a TLB shootdown at munmap for every scan-sized buffer: 12 of 17 s of the demo replay on this
+/// project's 2-core VM (issue 32). Holes that long-lived cached features leave between freed scans go back to the
+/// system with release_free_heap() after each graph solve. Call once at start, before threads are made.
+void keep_large_allocations_in_heap();
 
 /// @brief Tells the kernel it may drop this process's resident pages of the read-only file mappings (code and
 /// constants) of the shared libraries whose file name contains one of `libraries` (madvise MADV_PAGEOUT, Linux 5.4+;
