@@ -1,7 +1,7 @@
 #pragma once
 /// @file A keyframe's map cloud: the finer cloud the 3D map is built from (Ren 2019 Sec. 3.5), next to the 0.6 m
 /// verification cloud. Made on a worker from the deskewed scan, stored compressed in the map store, read back by
-/// map building (src/loopd/mapping). Sensor frame, intensity kept.
+/// map building (src/loopd/map3d). Sensor frame, intensity kept.
 #include <optional>
 #include <string>
 
