@@ -95,6 +95,22 @@ void deskew(const TimedVoxels& v, const Eigen::Isometry3d& T_previous_current, d
   }
 }
 
+/// The current sweep's path with more than one turn rate, against the previous sweep deskewed under the final estimate.
+void refine_shape(const TimedVoxels& cur, const TimedVoxels& prev, const Eigen::Isometry3d& T_previous_current, double dt,
+                  const std::optional<SweepIncrement>& previous_velocity, const SweepMotionConfig& config, SweepMotionResult* r) {
+  std::vector<Eigen::Vector3f> target, target_normals;
+  deskew(prev, T_previous_current, dt, false, &target, &target_normals, previous_velocity);
+  const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
+  const auto path = [&](double t) { return interpolate_screw(I, T_previous_current, (dt + t) / dt); };
+  const SweepShapeResult s = refine_sweep_shape(cur.points, cur.time, path, target, target_normals, config.shape);
+  r->shape_correction_deg = s.max_correction_deg;
+  if (!s.refined) return;
+  r->shape_refined = true;
+  r->knot_times = s.knot_times;
+  r->T_previous_knot = s.T_ref_knot;
+  r->T_previous_current = s.T_ref_stamp;
+}
+
 }  // namespace
 
 PointCloud sweep_motion_input(const PointCloud& cloud, const SweepMotionConfig& config) {
@@ -152,17 +168,17 @@ SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointC
     if (rotation_angle(c) * 180.0 / kPi > config.min_velocity_change_deg) change = c;
   }
   r.velocity_changed = change.has_value();
+  // The odometry's own rotation over the previous sweep (its noise once, not the difference's twice).
+  const auto previous_velocity = [&](const Eigen::Isometry3d& T) -> std::optional<SweepIncrement> {
+    Eigen::Isometry3d V = T;
+    V.linear() = odometry_previous_sweep->T_start_end.linear();
+    return SweepIncrement{V, odometry_previous_sweep->dt};
+  };
   Eigen::Isometry3d T = odometry_T_previous_current;
   std::vector<Eigen::Vector3f> source, source_normals, target, target_normals;
   for (int round = 0; round < config.rounds; ++round) {
-    std::optional<SweepIncrement> previous_velocity;
-    if (change) {  // the odometry's own rotation over the previous sweep (its noise once, not the difference's twice)
-      Eigen::Isometry3d V = T;
-      V.linear() = odometry_previous_sweep->T_start_end.linear();
-      previous_velocity = SweepIncrement{V, odometry_previous_sweep->dt};
-    }
     deskew(cur, T, dt, true, &source, &source_normals);
-    deskew(prev, T, dt, false, &target, &target_normals, previous_velocity);
+    deskew(prev, T, dt, false, &target, &target_normals, change ? previous_velocity(T) : std::nullopt);
     const GicpResult g = align_gicp(source, source_normals, target, target_normals, T, config.gicp);
     r.iterations += g.iterations;
     r.fitness = g.fitness;
@@ -182,6 +198,7 @@ SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointC
                    " deg from the odometry's");
   r.T_previous_current = T;
   r.refined = true;
+  if (!r.rotation_only && config.shape.segments > 0) refine_shape(cur, prev, T, dt, change ? previous_velocity(T) : std::nullopt, config, &r);
   r.ms = sw.ms();
   return r;
 }

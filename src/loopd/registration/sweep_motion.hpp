@@ -7,9 +7,11 @@
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "loopd/base/point_cloud.hpp"
 #include "loopd/registration/gicp.hpp"
+#include "loopd/registration/sweep_shape.hpp"
 
 namespace loopd {
 
@@ -40,6 +42,9 @@ struct SweepMotionConfig {
   /// speed in 0.1 s, and a rotation error weighs by the range. [deg] per sweep.
   double min_velocity_change_deg = 0.5;
   GicpConfig gicp = default_gicp();
+  /// After the constant-velocity estimate, the current sweep's rotation is refined with more than one turn rate
+  /// (refine_sweep_shape against the previous sweep), where the registration is not degenerate.
+  SweepShapeConfig shape;
 
   /// @brief GICP at 1 m voxels: 1.0 / 0.5 m correspondence stages, 1500 source points, one thread (the keyframe
   ///        workers already run in parallel).
@@ -64,6 +69,12 @@ struct SweepMotionResult {
   bool velocity_changed = false;  ///< the previous sweep was deskewed at its own velocity (the odometry's changed)
   double degeneracy = -1.0;       ///< gicp_degeneracy of the last registration (large: a direction the scans do not fix)
   int iterations = 0;             ///< GICP iterations over all rounds
+  /// The path through the current sweep with more than one turn rate (refine_sweep_shape), when shape_refined:
+  /// knot times [s] relative to the current stamp and the sensor's pose there in the previous stamp's frame.
+  bool shape_refined = false;
+  std::vector<double> knot_times;
+  std::vector<Eigen::Isometry3d> T_previous_knot;
+  double shape_correction_deg = 0.0;  ///< largest rotation of a knot off the constant-velocity path
   double ms = 0.0;
   std::string reason;
 };

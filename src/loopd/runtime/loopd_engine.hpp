@@ -142,6 +142,7 @@ struct EngineStats {
   double deskew_max_correction = 0.0;        ///< [m] largest distance deskew moved a point
   std::int64_t sweeps_from_scans = 0;        ///< keyframes deskewed with the motion their scans measured (deskew.from_scans)
   std::int64_t sweeps_from_odometry = 0;     ///< keyframes that tried and kept the odometry's motion (scans disagreed, did not register)
+  std::int64_t sweeps_shape_refined = 0;     ///< of sweeps_from_scans: with more than one turn rate (refine_sweep_shape)
   std::int64_t sweeps_velocity_changed = 0;  ///< of sweeps_from_scans: the previous sweep at its own velocity (the odometry's changed)
   std::string device;
   EngineProfile profile;
