@@ -141,9 +141,11 @@ TEST_CASE("the scans give back a sweep's motion that noisy odometry got wrong", 
   CAPTURE(with_scans, with_odometry, with_truth);
   CHECK(with_scans < with_odometry);
   CHECK(with_scans < with_truth + 0.005);
-  // With two turn rates (the default) on an arc that has one: the stamp's rotation stays within 0.1 deg, the deskewed
+  // With two turn rates on an arc that has one: the stamp's rotation stays within 0.1 deg, the deskewed
   // sweep as close to the still scan.
-  const loopd::SweepMotionResult shaped = loopd::estimate_sweep_motion(s.previous, s.current, kPeriod, odometry, loopd::SweepMotionConfig{});
+  loopd::SweepMotionConfig two_rates;
+  two_rates.shape.segments = 2;
+  const loopd::SweepMotionResult shaped = loopd::estimate_sweep_motion(s.previous, s.current, kPeriod, odometry, two_rates);
   REQUIRE(shaped.shape_refined);
   CHECK(rotation_deg(s.T_previous_current.inverse() * shaped.T_previous_current) < 0.1);
   CHECK(mean_distance_to_still(deskewed_on(s.current, shaped.knot_times, shaped.T_previous_knot), s.current_still) < with_truth + 0.005);
@@ -253,7 +255,9 @@ TEST_CASE("a turn's onset inside the sweep: its rotation with two turn rates lie
   loopd::SweepMotionConfig one_rate;
   one_rate.shape.segments = 0;
   const loopd::SweepMotionResult constant = loopd::estimate_sweep_motion(previous, current, kPeriod, truth, one_rate, previous_sweep);
-  const loopd::SweepMotionResult shaped = loopd::estimate_sweep_motion(previous, current, kPeriod, truth, loopd::SweepMotionConfig{}, previous_sweep);
+  loopd::SweepMotionConfig two_rates;
+  two_rates.shape.segments = 2;
+  const loopd::SweepMotionResult shaped = loopd::estimate_sweep_motion(previous, current, kPeriod, truth, two_rates, previous_sweep);
   INFO(constant.reason << " / " << shaped.reason);
   REQUIRE(constant.refined);
   REQUIRE(shaped.refined);

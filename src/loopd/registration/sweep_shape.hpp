@@ -17,7 +17,7 @@ namespace loopd {
 
 /// @brief Settings of refine_sweep_shape.
 struct SweepShapeConfig {
-  int segments = 2;  ///< knots = segments + 1, evenly over the sweep's times; 0 = off
+  int segments = 0;  ///< knots = segments + 1, evenly over the sweep's times; 0 = off (one rate; 2: a rate per half sweep)
   /// Prior on the change of the correction from one knot to the next [deg]: lets a knot follow its own data where
   /// that data fixes it and holds it to its neighbours where it does not (a quarter sweep facing open ground).
   double knot_change_sigma_deg = 0.5;
