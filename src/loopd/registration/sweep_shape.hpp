@@ -3,10 +3,10 @@
 /// (the sweep before it, already motion-compensated) under a path that is the constant-velocity one times a rotation
 /// correction that varies linearly between `segments` + 1 knots spread over the sweep's times. A turn's onset or end
 /// inside a sweep (the turn rate steps within 0.1 s) bends a constant-velocity deskew by up to a quarter of the sweep's
-/// rotation change; each quarter of a spinning lidar's sweep sees its own part of the scene, and that part fixes its
-/// own rotation. The continuous-time idea is CT-ICP's (Dellenbach et al. 2022, Sec. III: poses at a scan's begin
-/// and end), here with rotation-only knots inside the sweep: a vehicle's speed cannot change in 0.1 s, its turn rate
-/// can, and a rotation error moves a point by its range.
+/// rotation change; each part of a spinning lidar's sweep (a half, with the two segments loopd uses when it is on) sees
+/// its own part of the scene, and that part fixes its own rotation. The continuous-time idea is CT-ICP's (Dellenbach et al. 2022, Sec. III: poses at
+/// a scan's begin and end), here with rotation-only knots inside the sweep: a vehicle's speed cannot change in 0.1 s, its turn rate can, and a
+/// rotation error moves a point by its range.
 #include <Eigen/Geometry>
 #include <functional>
 #include <optional>

@@ -435,30 +435,12 @@ std::vector<StampedPose> LoopdEngine::sweep_poses_from_scans(const Job& job) {
   if (!m.refined) return {};
   if (m.shape_refined) {  // the path through the sweep at its knots, anchored at the odometry's pose at the stamp
     const Eigen::Isometry3d T_odom_previous = job.T_odom_scan * m.T_previous_current.inverse();
-    std::vector<StampedPose> path;
-    path.reserve(m.knot_times.size() + 1);
-    bool stamp_done = false;
-    for (std::size_t k = 0; k < m.knot_times.size(); ++k) {
-      StampedPose p;
-      p.utime = job.input.utime + static_cast<std::int64_t>(std::llround(m.knot_times[k] * 1e6));
-      if (!stamp_done && p.utime >= job.input.utime) {
-        StampedPose b;
-        b.utime = job.input.utime;
-        b.T_world_sensor = job.T_odom_scan;
-        path.push_back(b);
-        stamp_done = true;
-        if (p.utime == job.input.utime) continue;
-      }
-      if (!path.empty() && p.utime <= path.back().utime) continue;
-      p.T_world_sensor = T_odom_previous * m.T_previous_knot[k];
-      path.push_back(p);
-    }
-    if (!stamp_done) {
-      StampedPose b;
-      b.utime = job.input.utime;
-      b.T_world_sensor = job.T_odom_scan;
-      path.push_back(b);
-    }
+    std::vector<StampedPose> path{{job.input.utime, job.T_odom_scan, 0.0}};
+    for (std::size_t k = 0; k < m.knot_times.size(); ++k)
+      path.push_back({job.input.utime + std::llround(m.knot_times[k] * 1e6), T_odom_previous * m.T_previous_knot[k], 0.0});
+    // Sorted by time; a knot at the stamp's microsecond gives way to the stamp's own pose (first in the list).
+    std::stable_sort(path.begin(), path.end(), [](const StampedPose& a, const StampedPose& b) { return a.utime < b.utime; });
+    path.erase(std::unique(path.begin(), path.end(), [](const StampedPose& a, const StampedPose& b) { return a.utime == b.utime; }), path.end());
     return path;
   }
   StampedPose a, b;
