@@ -24,6 +24,7 @@
 #include "message_convert.hpp"
 #include "loopd/runtime/node_runtime.hpp"
 #include "output_messages.hpp"
+#include "scan_decode.hpp"
 #include "systemd_notify.hpp"
 #include "trajectory_publisher.hpp"
 #include "watchdog.hpp"
@@ -94,7 +95,7 @@ class OutputSink : public EngineSink {
 
 /// Decoded input waiting for the ingest thread, with the time it arrived (wall clock live, logger time in replay).
 struct Input {
-  std::variant<point_cloud_t, pose_t> msg;
+  std::variant<DecodedScan, pose_t> msg;
   double arrival_s = 0.0;
 };
 
@@ -134,8 +135,8 @@ class InputHandler {
     in.arrival_s = arrival_s;
     DecodeResult r;
     if (is_scan) {
-      point_cloud_t m;
-      r = decode_any_point_cloud(data, size, limits_, &m);  // older publishers' layout too
+      DecodedScan m;
+      r = decode_scan(data, size, limits_, &m);  // older publishers' layout too; contents checked
       if (r.ok) in.msg = std::move(m);
     } else {
       pose_t m;
@@ -171,19 +172,9 @@ class InputHandler {
 /// Converts one decoded input and feeds the engine; counts conversion failures as malformed.
 void ingest(LoopdEngine& engine, InputHandler& h, Input& in, const NodeConfig& node, std::int64_t* last_data_utime) {
   std::string error;
-  if (auto* scan = std::get_if<point_cloud_t>(&in.msg)) {
-    PointCloud cloud;
-    if (!from_message(*scan, &cloud, &error)) {
-      std::int64_t n = 0;
-      {
-        std::lock_guard<std::mutex> lock(h.counters_mutex_);
-        n = ++h.scan_.malformed;
-      }
-      log_anomaly("rejected a scan on " + node.scan_channel + ": " + error, n, node.log_every_n);
-      return;
-    }
+  if (auto* scan = std::get_if<DecodedScan>(&in.msg)) {
     *last_data_utime = std::max(*last_data_utime, scan->utime);
-    if (engine.push_scan(scan->utime, std::move(cloud), in.arrival_s)) {
+    if (engine.push_scan(scan->utime, std::move(scan->cloud), in.arrival_s)) {
       std::lock_guard<std::mutex> lock(h.counters_mutex_);
       ++h.scan_.accepted;
     } else {

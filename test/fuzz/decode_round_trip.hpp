@@ -2,11 +2,14 @@
 // Decoder fuzz targets: decode_bounded either rejects the bytes with a reason, or decodes them, and then the message
 // encodes back to exactly the input bytes (LCM's wire format has one encoding per message), so the fuzzer checks
 // that what is accepted is decoded correctly, not only that nothing crashes.
+#include <cstring>
 #include <iterator>
 #include <vector>
 
 #include "bounded_decode.hpp"
 #include "fuzz_support.hpp"
+#include "message_convert.hpp"
+#include "scan_decode.hpp"
 
 namespace loopd::fuzz {
 
@@ -55,6 +58,30 @@ inline int decode_any_point_cloud_round_trip(const std::uint8_t* data, std::size
   for (int i = 0; i < 8; ++i) expected[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(today >> (56 - 8 * i));
   expected.insert(expected.end(), 4, 0);
   return check_decoded(r, msg, size, expected.data(), expected.size());
+}
+
+/// decode_scan (the daemon's scan path) accepts exactly what decode_any_point_cloud and from_message accept together,
+/// and reads the same cloud, bit for bit.
+inline int decode_scan_agrees(const std::uint8_t* data, std::size_t size) {
+  point_cloud_t msg;
+  PointCloud via_message;
+  std::string error;
+  const bool accepted = decode_any_point_cloud(data, size, fuzz_limits(), &msg).ok && from_message(msg, &via_message, &error);
+  DecodedScan scan;
+  const DecodeResult r = decode_scan(data, size, fuzz_limits(), &scan);
+  check(r.ok == accepted, "decode_scan accepts what decode_any_point_cloud and from_message accept");
+  if (!r.ok) {
+    check(!r.reason.empty() && r.offset <= size, "a rejected scan says why and where");
+    return 0;
+  }
+  const auto same = [](const auto& a, const auto& b) {
+    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(a[0])) == 0);
+  };
+  check(scan.utime == msg.utime && scan.seq == msg.seq, "the stamp and sequence number agree");
+  check(same(scan.cloud.points, via_message.points) && same(scan.cloud.intensity, via_message.intensity), "points and intensity agree");
+  check(same(scan.cloud.ring, via_message.ring) && scan.cloud.num_rings == via_message.num_rings, "rings agree");
+  check(same(scan.cloud.time, via_message.time), "per-point times agree");
+  return 0;
 }
 
 /// loop_event_t of either layout (decode_any_loop_event, what the tools read logs with): today's re-encodes to the

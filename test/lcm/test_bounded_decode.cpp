@@ -3,13 +3,17 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <random>
 #include <unistd.h>
 
 #include "bounded_decode.hpp"
 #include "lcm_log.hpp"
+#include "message_convert.hpp"
+#include "scan_decode.hpp"
 
 using namespace loopd;
 namespace fs = std::filesystem;
@@ -514,6 +518,66 @@ TEST_CASE("a point_cloud_t of version 1 (before per-point times), built from byt
   ev.data = v1;
   CHECK(LogReader::decode(ev, &any));
   CHECK(any.utime == 1234567);
+}
+
+TEST_CASE("decode_scan reads either layout straight into the cloud that from_message makes, and refuses what it refuses") {
+  point_cloud_t today = with_times(small_scan(5));
+  today.ring = {0, 3, -2, 15, 7};  // a negative ring is clamped to 0, as from_message does
+  today.x[2] = std::numeric_limits<float>::quiet_NaN();
+  const std::vector<std::uint8_t> b = encode(today);
+  PointCloud expected;
+  std::string error;
+  REQUIRE(from_message(today, &expected, &error));
+  DecodedScan scan;
+  REQUIRE(decode_scan(b.data(), b.size(), DecodeLimits{}, &scan).ok);
+  CHECK(scan.utime == 1000);
+  CHECK(scan.seq == 7);
+  REQUIRE(scan.cloud.size() == 5);
+  CHECK(scan.cloud.points[4] == Eigen::Vector3f(4.0f, 1.5f, -0.5f));
+  CHECK(std::isnan(scan.cloud.points[2].x()));
+  CHECK(scan.cloud.intensity == expected.intensity);
+  CHECK(scan.cloud.ring == std::vector<std::uint16_t>{0, 3, 0, 15, 7});
+  CHECK(scan.cloud.num_rings == 16);
+  CHECK(scan.cloud.time == today.time_offset);
+
+  // Version 1: no times, rings kept.
+  const std::vector<std::uint8_t> v1 = point_cloud_v1_bytes();
+  REQUIRE(decode_scan(v1.data(), v1.size(), DecodeLimits{}, &scan).ok);
+  CHECK(scan.utime == 1234567);
+  CHECK(scan.seq == 42);
+  REQUIRE(scan.cloud.size() == 2);
+  CHECK(scan.cloud.points[1] == Eigen::Vector3f(-2.0f, 3.25f, 0.0f));
+  CHECK(scan.cloud.ring == std::vector<std::uint16_t>{3, 15});
+  CHECK_FALSE(scan.cloud.has_time());
+
+  // Refused, with the reason and the offset, and `out` left as it was.
+  const auto refused = [&](const std::vector<std::uint8_t>& bytes) {
+    DecodedScan kept;
+    kept.utime = -5;
+    const DecodeResult r = decode_scan(bytes.data(), bytes.size(), DecodeLimits{}, &kept);
+    CHECK(kept.utime == -5);
+    return r;
+  };
+  point_cloud_t late = today;
+  late.time_offset[3] = 1.5f;
+  DecodeResult r = refused(encode(late));
+  CHECK(r.reason == "point_cloud_t time_offset 1.500000 s is not finite or beyond 1.000000 s");
+  CHECK(r.offset == b.size() - 8);
+  point_cloud_t many_rings = today;
+  many_rings.num_rings = 600;
+  CHECK(refused(encode(many_rings)).reason == "point_cloud_t num_rings = 600 is outside 0..512");
+  point_cloud_t few_rings = today;
+  few_rings.num_ring_indices = 2;
+  few_rings.ring.resize(2);
+  CHECK(refused(encode(few_rings)).reason == "point_cloud_t num_ring_indices is neither 0 nor num_points");
+  std::vector<std::uint8_t> huge = b;
+  put_int32(&huge, num_points_offset(today), 2147483647);
+  r = refused(huge);
+  CHECK(r.reason == "num_points: = 2147483647 exceeds the limit 2000000");
+  CHECK(r.offset == num_points_offset(today));
+  CHECK(refused(std::vector<std::uint8_t>(b.begin(), b.end() - 1)).reason.rfind("num_point_times: = 5 needs", 0) == 0);
+  CHECK(refused(encode(sample_event())).reason.rfind("fingerprint", 0) == 0);
+  CHECK_FALSE(decode_scan(nullptr, 0, DecodeLimits{}, &scan).ok);
 }
 
 TEST_CASE("loop_event_t: a version-1 event (before sessions and retrieval) decodes as sessions 0 / 0, retrieval gate") {

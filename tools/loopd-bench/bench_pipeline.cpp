@@ -15,6 +15,7 @@
 #include "lcm_log.hpp"
 #include "loopd/runtime/loopd_engine.hpp"
 #include "message_convert.hpp"
+#include "scan_decode.hpp"
 #include "tool_output.hpp"
 #include "exit_codes.hpp"
 #include "loopd/base/stopwatch.hpp"
@@ -118,7 +119,7 @@ RunResult run_once(const std::vector<Input>& inputs, const EngineConfig& base, d
   return r;
 }
 
-/// The drive's scans and poses, decoded as loopd decodes them (bounded decode, message -> cloud), with the time that
+/// The drive's scans and poses, decoded as loopd decodes them (decode_scan: wire bytes -> cloud), with the time that
 /// took [ms]. False (the reason printed) when the drive cannot be read or holds fewer than 2 scans.
 bool read_inputs(const std::string& drive, int max_scans, std::vector<Input>* inputs, int* scans, double* decode_ms) {
   LogReader reader;
@@ -133,10 +134,11 @@ bool read_inputs(const std::string& drive, int max_scans, std::vector<Input>* in
     const Stopwatch sw;
     if (ev.channel == channels::kScan) {
       if (max_scans > 0 && *scans >= max_scans) break;
-      point_cloud_t m;
-      if (!LogReader::decode(ev, &m) || !from_message(m, &in.cloud, &error)) continue;
+      DecodedScan m;
+      if (!decode_scan(ev.data.data(), ev.data.size(), DecodeLimits{}, &m)) continue;
       in.is_scan = true;
       in.utime = m.utime;
+      in.cloud = std::move(m.cloud);
       ++*scans;
     } else if (ev.channel == channels::kPose) {
       pose_t m;
@@ -164,7 +166,7 @@ nlohmann::json print_profile(const RunResult& r, int scans, double decode_ms) {
     const char* thread;
     double ms;
   };
-  const std::vector<Row> rows = {{"decode", "decode (bounded, message -> cloud)", "LCM / ingest", decode_ms},
+  const std::vector<Row> rows = {{"decode", "decode (bounded, wire bytes -> cloud)", "LCM / ingest", decode_ms},
                                  {"ingest", "checks, association, keyframe rule, reference scans", "ingest", p.ingest_ms},
                                  {"sweep_motion", "sweep motion measured by the scans", "worker", p.sweep_motion_ms},
                                  {"deskew", "deskew (and the keyframe scan's copy)", "worker", p.deskew_ms},

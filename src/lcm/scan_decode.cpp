@@ -1,0 +1,149 @@
+#include "scan_decode.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <new>
+#include <string>
+
+#include <loopd/point_cloud_t.hpp>
+
+#include "message_convert.hpp"
+#include "wire_walker.hpp"
+
+namespace loopd {
+namespace {
+
+std::uint32_t big_endian_u32(const std::uint8_t* p) {
+  std::uint32_t u = 0;
+  std::memcpy(&u, p, sizeof u);
+#if __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+  u = __builtin_bswap32(u);
+#endif
+  return u;
+}
+
+float big_endian_float(const std::uint8_t* p) {
+  const std::uint32_t u = big_endian_u32(p);
+  float f = 0.0F;
+  std::memcpy(&f, &u, sizeof f);
+  return f;
+}
+
+std::int16_t big_endian_i16(const std::uint8_t* p) { return static_cast<std::int16_t>((static_cast<unsigned>(p[0]) << 8) | p[1]); }
+
+/// Where each array of a proven message starts, and its counts.
+struct ScanLayout {
+  std::int64_t utime = 0, seq = 0;
+  std::size_t points = 0, rings = 0, times = 0;
+  std::int16_t num_rings = 0;
+  std::size_t x_at = 0, ring_at = 0, num_rings_at = 0, times_at = 0;
+};
+
+/// Walks either layout of point_cloud_t (as bounded_decode's walk functions do) and records where the arrays are.
+ScanLayout walk_scan(WireWalker& w, const DecodeLimits& limits) {
+  ScanLayout l;
+  const std::int64_t hash = w.int64("fingerprint");
+  const bool version1 = hash == kPointCloudV1Hash;
+  if (w.ok() && !version1 && hash != point_cloud_t::getHash())
+    w.fail_at(0, "fingerprint", "does not match the message type (another type, or another version of it)");
+  l.utime = w.int64("utime");
+  l.seq = w.int64("seq");
+  w.string("frame", limits.max_string);
+  l.points = static_cast<std::size_t>(w.length("num_points", w.int32("num_points"), limits.max_points, sizeof(float), 4));
+  l.x_at = w.position();
+  w.skip("x .. intensity", sizeof(float), 4 * l.points);
+  l.rings = static_cast<std::size_t>(w.length("num_ring_indices", w.int32("num_ring_indices"), limits.max_points, sizeof(std::int16_t)));
+  l.ring_at = w.position();
+  w.skip("ring", sizeof(std::int16_t), l.rings);
+  l.num_rings_at = w.position();
+  l.num_rings = w.int16("num_rings");
+  if (!version1) {
+    l.times = static_cast<std::size_t>(w.optional_length("num_point_times", w.int32("num_point_times"), static_cast<std::int64_t>(l.points), sizeof(float)));
+    l.times_at = w.position();
+    w.skip("time_offset", sizeof(float), l.times);
+  }
+  w.end();
+  return l;
+}
+
+/// from_message's checks of the contents; empty when they pass.
+DecodeResult check_contents(const std::uint8_t* bytes, const ScanLayout& l) {
+  DecodeResult r;
+  if (l.rings != 0 && l.rings != l.points) {
+    r.reason = "point_cloud_t num_ring_indices is neither 0 nor num_points";
+    r.offset = l.ring_at - 4;
+  } else if (l.num_rings < 0 || l.num_rings > kMaxRings) {
+    r.reason = "point_cloud_t num_rings = " + std::to_string(l.num_rings) + " is outside 0.." + std::to_string(kMaxRings);
+    r.offset = l.num_rings_at;
+  }
+  for (std::size_t i = 0; r.reason.empty() && i < l.times; ++i) {
+    const float t = big_endian_float(bytes + l.times_at + 4 * i);
+    if (!(std::abs(t) <= kMaxPointTimeOffset)) {  // NaN fails too
+      r.reason = "point_cloud_t time_offset " + std::to_string(t) + " s is not finite or beyond " + std::to_string(kMaxPointTimeOffset) + " s";
+      r.offset = l.times_at + 4 * i;
+    }
+  }
+  r.ok = r.reason.empty();
+  return r;
+}
+
+/// Reads the proven, checked arrays into `cloud` (as from_message converts them).
+void read_cloud(const std::uint8_t* bytes, const ScanLayout& l, PointCloud* cloud) {
+  const std::size_t n = l.points;
+  const std::uint8_t* x = bytes + l.x_at;
+  const std::uint8_t* y = x + 4 * n;
+  const std::uint8_t* z = y + 4 * n;
+  const std::uint8_t* intensity = z + 4 * n;
+  cloud->points.resize(n);
+  cloud->intensity.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    cloud->points[i] = Eigen::Vector3f(big_endian_float(x + 4 * i), big_endian_float(y + 4 * i), big_endian_float(z + 4 * i));
+    cloud->intensity[i] = big_endian_float(intensity + 4 * i);
+  }
+  if (l.rings == n && l.num_rings > 0) {
+    cloud->ring.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::int16_t ring = big_endian_i16(bytes + l.ring_at + 2 * i);
+      cloud->ring[i] = static_cast<std::uint16_t>(ring < 0 ? 0 : ring);
+    }
+    cloud->num_rings = l.num_rings;
+  }
+  if (l.times != 0) {
+    cloud->time.resize(n);
+    for (std::size_t i = 0; i < n; ++i) cloud->time[i] = big_endian_float(bytes + l.times_at + 4 * i);
+  }
+}
+
+}  // namespace
+
+DecodeResult decode_scan(const void* data, std::size_t size, const DecodeLimits& limits, DecodedScan* out) {
+  DecodeResult result;
+  if (data == nullptr && size != 0) {
+    result.reason = "no data";
+    return result;
+  }
+  WireWalker w(data, size);
+  const ScanLayout layout = walk_scan(w, limits);
+  if (!w.ok()) {
+    result.reason = w.error();
+    result.offset = w.error_offset();
+    return result;
+  }
+  const auto* bytes = static_cast<const std::uint8_t*>(data);
+  result = check_contents(bytes, layout);
+  if (!result.ok) return result;
+  try {
+    DecodedScan scan;
+    scan.utime = layout.utime;
+    scan.seq = layout.seq;
+    read_cloud(bytes, layout, &scan.cloud);
+    *out = std::move(scan);
+  } catch (const std::bad_alloc&) {
+    result.ok = false;
+    result.reason = "out of memory while decoding";
+  }
+  return result;
+}
+
+}  // namespace loopd
