@@ -91,6 +91,17 @@ TEST_CASE("map writer on postgres: a commit whose acknowledgement is lost is sto
   // Every COMMIT now waits for a standby that never comes; a watcher terminates the backend that waits.
   REQUIRE(server->sql(uri, "ALTER SYSTEM SET synchronous_standby_names = 'never_there'"));
   REQUIRE(server->sql(uri, "SELECT pg_reload_conf()"));
+  // The reload is asynchronous: the postmaster rereads the file, then signals the backends, which apply it between
+  // commands. Wait until a new connection (forked after the postmaster's reload) sees the setting, so that the
+  // writer's backend has been signalled before its next transaction; without this the commit below could go through
+  // unaffected now and then (seen under ctest -j2).
+  bool reloaded = false;
+  for (int i = 0; i < 200 && !reloaded; ++i) {
+    reloaded = server->sql(uri, "DO $$ BEGIN IF current_setting('synchronous_standby_names') <> 'never_there' THEN RAISE 'not yet'; END IF; END $$");
+    if (!reloaded) std::this_thread::sleep_for(std::chrono::milliseconds(25));
+  }
+  REQUIRE(reloaded);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
   bool terminated = false;
   std::thread watcher([&] {
     terminated = server->sql(uri,
