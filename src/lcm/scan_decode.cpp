@@ -59,7 +59,8 @@ ScanLayout walk_scan(WireWalker& w, const DecodeLimits& limits) {
   l.num_rings_at = w.position();
   l.num_rings = w.int16("num_rings");
   if (!version1) {
-    l.times = static_cast<std::size_t>(w.optional_length("num_point_times", w.int32("num_point_times"), static_cast<std::int64_t>(l.points), sizeof(float)));
+    l.times = static_cast<std::size_t>(
+        w.optional_length("num_point_times", w.int32("num_point_times"), static_cast<std::int64_t>(l.points), sizeof(float)));
     l.times_at = w.position();
     w.skip("time_offset", sizeof(float), l.times);
   }
