@@ -159,17 +159,26 @@ std::vector<double> histogram_rings(const std::vector<float>& e, double lo, doub
 }
 
 /// Sampled returns of the beam that has the most: those within a third of the spacing (at most 0.15 deg) of its elevation.
-std::size_t fullest_beam(std::vector<float> e, const std::vector<double>& beams) {
-  std::sort(e.begin(), e.end());
-  std::size_t best = 0;
+/// The windows of neighbouring beams do not overlap (each is at most a third of the gap), so each return is counted
+/// against the two beams around it: O(returns log beams), no sort of the returns.
+std::size_t fullest_beam(const std::vector<float>& e, const std::vector<double>& beams) {
+  if (beams.empty()) return 0;
+  std::vector<float> lo(beams.size()), hi(beams.size());
   for (std::size_t i = 0; i < beams.size(); ++i) {
     const double gap = std::min(i > 0 ? beams[i] - beams[i - 1] : 1.0, i + 1 < beams.size() ? beams[i + 1] - beams[i] : 1.0);
     const double w = std::min(0.15, gap / 3.0);
-    const auto lo = std::lower_bound(e.begin(), e.end(), static_cast<float>(beams[i] - w));
-    const auto hi = std::upper_bound(e.begin(), e.end(), static_cast<float>(beams[i] + w));
-    best = std::max(best, static_cast<std::size_t>(hi - lo));
+    lo[i] = static_cast<float>(beams[i] - w);
+    hi[i] = static_cast<float>(beams[i] + w);
   }
-  return best;
+  std::vector<std::size_t> count(beams.size(), 0);
+  for (const float v : e) {
+    // The first beam whose window starts above v; v can only lie in the window before it.
+    const auto above = std::upper_bound(lo.begin(), lo.end(), v);
+    if (above == lo.begin()) continue;
+    const auto i = static_cast<std::size_t>(above - lo.begin()) - 1;
+    if (v <= hi[i]) ++count[i];
+  }
+  return *std::max_element(count.begin(), count.end());
 }
 
 /// Rings that match a preset's beams (same count, every elevation within 0.5 deg) take the preset's datasheet
@@ -251,9 +260,10 @@ SensorEstimate estimate_sensor(const PointCloud& scan, const SensorEstimateConfi
   }
   if (est.rings_resolved) {
     // Columns: the fullest beam's returns over one revolution (a ground beam misses few).
-    const double per_beam = static_cast<double>(fullest_beam(s.all, est.model.vertical_angles_deg)) * static_cast<double>(s.stride);
-    est.model.azimuth_steps = std::clamp(static_cast<int>(std::lround(per_beam / coverage)), 64, 8192);
-    if (scan.has_rings()) {  // the sample above was of all returns, not of one ring: count the fullest ring exactly
+    if (!scan.has_rings()) {
+      const double per_beam = static_cast<double>(fullest_beam(s.all, est.model.vertical_angles_deg)) * static_cast<double>(s.stride);
+      est.model.azimuth_steps = std::clamp(static_cast<int>(std::lround(per_beam / coverage)), 64, 8192);
+    } else {  // the sample is of all returns, not of one ring: count the fullest ring exactly
       std::vector<std::size_t> count(static_cast<std::size_t>(scan.num_rings), 0);
       for (std::size_t i = 0; i < scan.size(); ++i) {
         if (scan.ring[i] < scan.num_rings && scan.points[i].allFinite()) ++count[scan.ring[i]];
