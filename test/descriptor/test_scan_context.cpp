@@ -6,6 +6,7 @@
 
 #include "descriptor/scan_context_scene.hpp"
 #include "loopd/base/cloud_ops.hpp"
+#include "loopd/base/fast_atan2.hpp"
 #include "loopd/base/pose.hpp"
 #include "loopd/descriptor/scan_context.hpp"
 
@@ -79,6 +80,46 @@ TEST_CASE("Scan Context: bins hold the highest point + offset, quantised, empty 
   CHECK(few.error.find("fewer than 4") != std::string::npos);
   CHECK_FALSE(compute_place_descriptor(PointCloud{}).ok);
   CHECK_FALSE(place_distance(few, d).ok);
+}
+
+TEST_CASE("Scan Context: each point lands in the sector std::atan2 gives it, on and beside every sector boundary") {
+  // The sector is taken from a fast atan2 away from the boundaries and from std::atan2 near them; the bins must be
+  // exactly those of std::atan2. Points on, and a few float steps either side of, each of the 60 boundaries (and the
+  // axes, -0 included), one point per descriptor, each with its own height so the bin it lands in is unambiguous.
+  ScanContextConfig config;
+  config.min_points = 1;
+  const float sectors_per_rad = static_cast<float>(config.num_sectors / (2.0 * M_PI));
+  std::vector<Eigen::Vector2f> xy = {{1.f, 0.f}, {-1.f, 0.f}, {-1.f, -0.f}, {0.f, 1.f}, {0.f, -1.f}, {-0.f, -1.f}};
+  for (int b = 0; b <= config.num_sectors; ++b) {
+    const double boundary = -M_PI + b * 2.0 * M_PI / config.num_sectors;
+    for (const double eps : {-1e-4, -1e-5, -1e-6, -1e-7, 0.0, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3}) {
+      for (const float r : {3.f, 37.f, 79.f}) xy.emplace_back(r * std::cos(boundary + eps), r * std::sin(boundary + eps));
+    }
+  }
+  for (int i = 0; i < 2000; ++i) xy.emplace_back(30.f * std::cos(i * 0.7311), 30.f * std::sin(i * 0.7311));
+  int checked = 0;
+  for (const Eigen::Vector2f& p : xy) {
+    PointCloud c;
+    c.points = {{p.x(), p.y(), 1.0f}};  // height 1 + 2 = 3 m -> 30 steps
+    const PlaceDescriptor d = compute_place_descriptor(c, config);
+    REQUIRE(d.ok);
+    const float azimuth = std::atan2(p.y(), p.x()) + static_cast<float>(M_PI);
+    const auto sector = std::min<std::size_t>(config.num_sectors - 1, static_cast<std::size_t>(azimuth * sectors_per_rad));
+    const auto ring = std::min<std::size_t>(config.num_rings - 1, static_cast<std::size_t>(std::sqrt(p.x() * p.x() + p.y() * p.y()) *
+                                                                                          (config.num_rings / config.max_range)));
+    INFO("x " << p.x() << " y " << p.y() << " expected sector " << sector);
+    CHECK(int(d.bins[sector * config.num_rings + ring]) == 30);
+    ++checked;
+  }
+  CHECK(checked == static_cast<int>(xy.size()));
+  // The premise: fast_atan2's error stays within the 5e-4 rad band that scan_context.cpp hands to std::atan2.
+  double worst = 0.0;
+  for (int i = 0; i < 200000; ++i) {
+    const double a = -M_PI + 2.0 * M_PI * (i + 0.5) / 200000.0;
+    const float x = static_cast<float>(std::cos(a)), y = static_cast<float>(std::sin(a));
+    worst = std::max(worst, std::abs(static_cast<double>(fast_atan2(y, x)) - std::atan2(static_cast<double>(y), static_cast<double>(x))));
+  }
+  CHECK(worst <= 2.1e-4);
 }
 
 TEST_CASE("Scan Context bytes: round trip exact, truncated, wrong version, wrong size rejected with a reason") {

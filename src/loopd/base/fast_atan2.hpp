@@ -4,8 +4,9 @@
 
 namespace loopd {
 
-/// @brief atan2(y, x) [rad] with |error| < 1e-5 rad: binning a point's azimuth into columns or sectors needs far less,
-/// and libm's atan2 dominated the range image's projection. 0 for (0, 0).
+/// @brief atan2(y, x) [rad] with |error| <= 2.1e-4 rad (0.012 deg, largest near +-45 and +-135 deg; measured over 2M
+/// directions): binning a point's azimuth into columns or sectors needs no more (an HDL-64E column is 0.17 deg), and
+/// libm's atan2 dominated the range image's projection. 0 for (0, 0).
 inline float fast_atan2(float y, float x) {
   const float ax = std::abs(x), ay = std::abs(y);
   const float mx = std::max(ax, ay);

@@ -1,6 +1,8 @@
 // Scan Context (Kim & Kim, IROS 2018): polar max-height bins, ring key, shift-minimised column cosine distance.
 #include "loopd/descriptor/scan_context.hpp"
 
+#include "loopd/base/fast_atan2.hpp"
+
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
@@ -104,6 +106,20 @@ PlaceDescriptor compute_place_descriptor(const PointCloud& cloud, const ScanCont
   return compute_place_descriptor(cloud, config, Eigen::Vector2f::Zero());
 }
 
+namespace {
+
+/// The sector (before the clamp to the last) of azimuth atan2(y, x) + pi, exactly as std::atan2 bins it: fast_atan2
+/// (error <= 2.1e-4 rad) decides, except within 5e-4 rad of a sector boundary (1 % of the points at 60 sectors), where
+/// std::atan2 does. Bins and decisions are therefore those of std::atan2 alone, at a fraction of its cost.
+std::size_t sector_of(float x, float y, float sectors_per_rad) {
+  const float t = (fast_atan2(y, x) + static_cast<float>(kPi)) * sectors_per_rad;
+  if (std::abs(t - std::round(t)) > 5e-4f * sectors_per_rad) return static_cast<std::size_t>(std::max(0.f, t));
+  const float azimuth = std::atan2(y, x) + static_cast<float>(kPi);  // [0, 2 pi]
+  return static_cast<std::size_t>(azimuth * sectors_per_rad);
+}
+
+}  // namespace
+
 PlaceDescriptor compute_place_descriptor(const PointCloud& cloud, const ScanContextConfig& config, const Eigen::Vector2f& origin) {
   PlaceDescriptor d;
   if (const auto err = config.validate()) {
@@ -128,8 +144,7 @@ PlaceDescriptor compute_place_descriptor(const PointCloud& cloud, const ScanCont
     const float range2 = x * x + y * y;
     if (range2 >= max_range2) continue;
     const auto r = std::min(nr - 1, static_cast<std::size_t>(std::sqrt(range2) * rings_per_m));
-    const float azimuth = std::atan2(y, x) + static_cast<float>(kPi);  // [0, 2 pi]
-    const auto s = std::min(ns - 1, static_cast<std::size_t>(azimuth * sectors_per_rad));
+    const auto s = std::min(ns - 1, sector_of(x, y, sectors_per_rad));
     float& h = highest[s * nr + r];
     h = std::max(h, p.z() + config.height_offset);
     ++used;
