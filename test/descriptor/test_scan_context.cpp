@@ -105,8 +105,8 @@ TEST_CASE("Scan Context: each point lands in the sector std::atan2 gives it, on 
     REQUIRE(d.ok);
     const float azimuth = std::atan2(p.y(), p.x()) + static_cast<float>(M_PI);
     const auto sector = std::min<std::size_t>(config.num_sectors - 1, static_cast<std::size_t>(azimuth * sectors_per_rad));
-    const auto ring = std::min<std::size_t>(config.num_rings - 1, static_cast<std::size_t>(std::sqrt(p.x() * p.x() + p.y() * p.y()) *
-                                                                                          (config.num_rings / config.max_range)));
+    const auto ring = std::min<std::size_t>(
+        config.num_rings - 1, static_cast<std::size_t>(std::sqrt(p.x() * p.x() + p.y() * p.y()) * (config.num_rings / config.max_range)));
     INFO("x " << p.x() << " y " << p.y() << " expected sector " << sector);
     CHECK(int(d.bins[sector * config.num_rings + ring]) == 30);
     ++checked;
