@@ -1,5 +1,6 @@
 #include "bounded_decode.hpp"
 
+#include "point_cloud_walk.hpp"
 #include "wire_walker.hpp"
 
 #include <cstring>
@@ -24,25 +25,10 @@ void walk(WireWalker& w, const DecodeLimits&, const pose_t*) {
 /// point_cloud_t up to num_rings: the whole of version 1 (before `num_point_times` and `time_offset` were appended).
 /// Returns num_points.
 std::int64_t walk_point_cloud_v1(WireWalker& w, const DecodeLimits& limits) {
-  w.skip("utime", 8);
-  w.skip("seq", 8);
-  w.string("frame", limits.max_string);
-  const std::int64_t points = w.length("num_points", w.int32("num_points"), limits.max_points, sizeof(float), 4);
-  w.skip("x", sizeof(float), static_cast<std::size_t>(points));
-  w.skip("y", sizeof(float), static_cast<std::size_t>(points));
-  w.skip("z", sizeof(float), static_cast<std::size_t>(points));
-  w.skip("intensity", sizeof(float), static_cast<std::size_t>(points));
-  const std::int64_t rings = w.length("num_ring_indices", w.int32("num_ring_indices"), limits.max_points, sizeof(std::int16_t));
-  w.skip("ring", sizeof(std::int16_t), static_cast<std::size_t>(rings));
-  w.skip("num_rings", 2);
-  return points;
+  return static_cast<std::int64_t>(walk_point_cloud(w, limits, false).points);
 }
 
-void walk(WireWalker& w, const DecodeLimits& limits, const point_cloud_t*) {
-  const std::int64_t points = walk_point_cloud_v1(w, limits);
-  const std::int64_t times = w.optional_length("num_point_times", w.int32("num_point_times"), points, sizeof(float));
-  w.skip("time_offset", sizeof(float), static_cast<std::size_t>(times));
-}
+void walk(WireWalker& w, const DecodeLimits& limits, const point_cloud_t*) { walk_point_cloud(w, limits, true); }
 
 /// loop_event_t up to ms_total: the whole of version 1 (before the sessions, `retrieval` and `place_distance`).
 void walk_loop_event_v1(WireWalker& w, const DecodeLimits& limits) {

@@ -9,6 +9,7 @@
 #include <loopd/point_cloud_t.hpp>
 
 #include "message_convert.hpp"
+#include "point_cloud_walk.hpp"
 #include "wire_walker.hpp"
 
 namespace loopd {
@@ -32,44 +33,19 @@ float big_endian_float(const std::uint8_t* p) {
 
 std::int16_t big_endian_i16(const std::uint8_t* p) { return static_cast<std::int16_t>((static_cast<unsigned>(p[0]) << 8) | p[1]); }
 
-/// Where each array of a proven message starts, and its counts.
-struct ScanLayout {
-  std::int64_t utime = 0, seq = 0;
-  std::size_t points = 0, rings = 0, times = 0;
-  std::int16_t num_rings = 0;
-  std::size_t x_at = 0, ring_at = 0, num_rings_at = 0, times_at = 0;
-};
-
-/// Walks either layout of point_cloud_t (as bounded_decode's walk functions do) and records where the arrays are.
-ScanLayout walk_scan(WireWalker& w, const DecodeLimits& limits) {
-  ScanLayout l;
+/// Walks either layout of point_cloud_t (the walk bounded_decode proves messages with) and records where the arrays are.
+PointCloudLayout walk_scan(WireWalker& w, const DecodeLimits& limits) {
   const std::int64_t hash = w.int64("fingerprint");
   const bool version1 = hash == kPointCloudV1Hash;
   if (w.ok() && !version1 && hash != point_cloud_t::getHash())
     w.fail_at(0, "fingerprint", "does not match the message type (another type, or another version of it)");
-  l.utime = w.int64("utime");
-  l.seq = w.int64("seq");
-  w.string("frame", limits.max_string);
-  l.points = static_cast<std::size_t>(w.length("num_points", w.int32("num_points"), limits.max_points, sizeof(float), 4));
-  l.x_at = w.position();
-  w.skip("x .. intensity", sizeof(float), 4 * l.points);
-  l.rings = static_cast<std::size_t>(w.length("num_ring_indices", w.int32("num_ring_indices"), limits.max_points, sizeof(std::int16_t)));
-  l.ring_at = w.position();
-  w.skip("ring", sizeof(std::int16_t), l.rings);
-  l.num_rings_at = w.position();
-  l.num_rings = w.int16("num_rings");
-  if (!version1) {
-    l.times = static_cast<std::size_t>(
-        w.optional_length("num_point_times", w.int32("num_point_times"), static_cast<std::int64_t>(l.points), sizeof(float)));
-    l.times_at = w.position();
-    w.skip("time_offset", sizeof(float), l.times);
-  }
+  const PointCloudLayout l = walk_point_cloud(w, limits, !version1);
   w.end();
   return l;
 }
 
 /// from_message's checks of the contents; empty when they pass.
-DecodeResult check_contents(const std::uint8_t* bytes, const ScanLayout& l) {
+DecodeResult check_contents(const std::uint8_t* bytes, const PointCloudLayout& l) {
   DecodeResult r;
   if (l.rings != 0 && l.rings != l.points) {
     r.reason = "point_cloud_t num_ring_indices is neither 0 nor num_points";
@@ -90,7 +66,7 @@ DecodeResult check_contents(const std::uint8_t* bytes, const ScanLayout& l) {
 }
 
 /// Reads the proven, checked arrays into `cloud` (as from_message converts them).
-void read_cloud(const std::uint8_t* bytes, const ScanLayout& l, PointCloud* cloud) {
+void read_cloud(const std::uint8_t* bytes, const PointCloudLayout& l, PointCloud* cloud) {
   const std::size_t n = l.points;
   const std::uint8_t* x = bytes + l.x_at;
   const std::uint8_t* y = x + 4 * n;
@@ -125,7 +101,7 @@ DecodeResult decode_scan(const void* data, std::size_t size, const DecodeLimits&
     return result;
   }
   WireWalker w(data, size);
-  const ScanLayout layout = walk_scan(w, limits);
+  const PointCloudLayout layout = walk_scan(w, limits);
   if (!w.ok()) {
     result.reason = w.error();
     result.offset = w.error_offset();
