@@ -3,49 +3,29 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdint>
-#include <unordered_map>
 
+#include "loopd/base/voxel_grid.hpp"
 #include "loopd/segmentation/segmentation_internal.hpp"
 
 namespace loopd::detail {
 namespace {
 
-struct VoxelKey {
-  std::int64_t key;
-  bool operator==(const VoxelKey& o) const { return key == o.key; }
-};
-struct VoxelHash {
-  std::size_t operator()(const VoxelKey& k) const { return std::hash<std::int64_t>()(k.key); }
-};
+/// Nothing more per voxel than VoxelGrid's sum and count.
+struct NoPayload {};
 
+// Voxel centroids of the members, in key order (VoxelGrid: the same grid as the scan's downsampling), at most `cap`
+// of them by an even stride.
 std::vector<Eigen::Vector3f> downsample_members(const std::vector<Eigen::Vector3f>& pts, double voxel, int cap) {
-  std::unordered_map<VoxelKey, std::pair<Eigen::Vector3d, int>, VoxelHash> cells;
-  cells.reserve(pts.size() / 4 + 1);
-  std::vector<std::int64_t> order;
-  const double inv = 1.0 / voxel;
-  for (const auto& p : pts) {
-    const std::int64_t x = static_cast<std::int64_t>(std::floor(p.x() * inv)) + (1 << 20);
-    const std::int64_t y = static_cast<std::int64_t>(std::floor(p.y() * inv)) + (1 << 20);
-    const std::int64_t z = static_cast<std::int64_t>(std::floor(p.z() * inv)) + (1 << 20);
-    const VoxelKey key{(x << 42) | (y << 21) | z};
-    auto it = cells.find(key);
-    if (it == cells.end()) {
-      cells.emplace(key, std::make_pair(p.cast<double>(), 1));
-      order.push_back(key.key);
-    } else {
-      it->second.first += p.cast<double>();
-      it->second.second += 1;
-    }
-  }
-  std::sort(order.begin(), order.end());  // deterministic order independent of the hash table
+  VoxelGrid<NoPayload> grid(voxel, pts.size() / 4 + 1);
+  for (const auto& p : pts) grid.add(p);
+  const auto voxels = std::move(grid).sorted_voxels();
   std::vector<Eigen::Vector3f> out;
-  const std::size_t m = order.size();
+  const std::size_t m = voxels.size();
   const std::size_t keep = std::min(m, static_cast<std::size_t>(cap));
   out.reserve(keep);
   for (std::size_t j = 0; j < keep; ++j) {
     const std::size_t i = keep == m ? j : (j * m) / keep;  // even stride over the sorted voxels
-    const auto& cell = cells.at(VoxelKey{order[i]});
-    out.push_back((cell.first / cell.second).cast<float>());
+    out.push_back(voxels[i].centroid());
   }
   return out;
 }
