@@ -37,31 +37,38 @@ point_cloud_t to_message(const PointCloud& cloud, std::int64_t utime, std::int64
   return msg;
 }
 
+std::string ring_indices_error(std::int64_t num_points, std::int64_t num_ring_indices) {
+  if (num_ring_indices == 0 || num_ring_indices == num_points) return "";
+  return "point_cloud_t num_ring_indices is neither 0 nor num_points";
+}
+
+std::string num_rings_error(std::int64_t num_rings) {
+  if (num_rings >= 0 && num_rings <= kMaxRings) return "";
+  return "point_cloud_t num_rings = " + std::to_string(num_rings) + " is outside 0.." + std::to_string(kMaxRings);
+}
+
+std::string point_time_error(float t) {
+  if (std::abs(t) <= kMaxPointTimeOffset) return "";  // NaN fails
+  return "point_cloud_t time_offset " + std::to_string(t) + " s is not finite or beyond " + std::to_string(kMaxPointTimeOffset) + " s";
+}
+
 bool from_message(const point_cloud_t& msg, PointCloud* cloud, std::string* error) {
   const auto n = static_cast<std::size_t>(msg.num_points);
   if (msg.num_points < 0 || msg.x.size() != n || msg.y.size() != n || msg.z.size() != n || msg.intensity.size() != n) {
     *error = "point_cloud_t arrays disagree with num_points";
     return false;
   }
-  if (msg.num_ring_indices != 0 && msg.num_ring_indices != msg.num_points) {
-    *error = "point_cloud_t num_ring_indices is neither 0 nor num_points";
-    return false;
-  }
-  if (msg.num_rings < 0 || msg.num_rings > kMaxRings) {
-    *error = "point_cloud_t num_rings = " + std::to_string(msg.num_rings) + " is outside 0.." + std::to_string(kMaxRings);
-    return false;
-  }
+  *error = ring_indices_error(msg.num_points, msg.num_ring_indices);
+  if (error->empty()) *error = num_rings_error(msg.num_rings);
+  if (!error->empty()) return false;
   const bool has_times = msg.num_point_times != 0;
   if ((has_times && msg.num_point_times != msg.num_points) || (has_times && msg.time_offset.size() != n)) {
     *error = "point_cloud_t num_point_times is neither 0 nor num_points";
     return false;
   }
   for (std::size_t i = 0; has_times && i < n; ++i) {
-    const float t = msg.time_offset[i];
-    if (!(std::abs(t) <= kMaxPointTimeOffset)) {  // NaN fails too
-      *error = "point_cloud_t time_offset " + std::to_string(t) + " s is not finite or beyond " + std::to_string(kMaxPointTimeOffset) + " s";
-      return false;
-    }
+    *error = point_time_error(msg.time_offset[i]);
+    if (!error->empty()) return false;
   }
   *cloud = PointCloud();
   cloud->points.resize(n);

@@ -1,4 +1,5 @@
 #pragma once
+#include <cstdint>
 #include <string>
 
 #include <loopd/point_cloud_t.hpp>
@@ -30,6 +31,15 @@ inline constexpr double kMaxPointTimeOffset = 1.0;
 
 /// @brief Per-point times go out when the cloud has them (num_point_times = num_points), else num_point_times = 0.
 point_cloud_t to_message(const PointCloud& cloud, std::int64_t utime, std::int64_t seq, const std::string& frame);
+/// @brief point_cloud_t's content rules, one function each, shared by from_message and decode_scan so both refuse the
+/// same scans with the same words. Each is empty when the rule holds, else the reason.
+/// num_ring_indices is 0 (no rings) or num_points.
+std::string ring_indices_error(std::int64_t num_points, std::int64_t num_ring_indices);
+/// num_rings within 0..kMaxRings.
+std::string num_rings_error(std::int64_t num_rings);
+/// A per-point time offset is finite and within kMaxPointTimeOffset of the stamp.
+std::string point_time_error(float time_offset);
+
 /// @brief Validates array sizes and per-point times (finite, within kMaxPointTimeOffset); NaN points are kept (the
 /// pipeline filters and counts them). Times fill cloud->time when the message has them.
 bool from_message(const point_cloud_t& msg, PointCloud* cloud, std::string* error);

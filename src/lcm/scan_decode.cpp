@@ -44,24 +44,21 @@ PointCloudLayout walk_scan(WireWalker& w, const DecodeLimits& limits) {
   return l;
 }
 
-/// from_message's checks of the contents; empty when they pass.
+/// from_message's checks of the contents (the same rules, message_convert.hpp), with where each failed.
 DecodeResult check_contents(const std::uint8_t* bytes, const PointCloudLayout& l) {
   DecodeResult r;
-  if (l.rings != 0 && l.rings != l.points) {
-    r.reason = "point_cloud_t num_ring_indices is neither 0 nor num_points";
-    r.offset = l.ring_at - 4;
-  } else if (l.num_rings < 0 || l.num_rings > kMaxRings) {
-    r.reason = "point_cloud_t num_rings = " + std::to_string(l.num_rings) + " is outside 0.." + std::to_string(kMaxRings);
+  r.reason = ring_indices_error(static_cast<std::int64_t>(l.points), static_cast<std::int64_t>(l.rings));
+  r.offset = l.ring_at - 4;
+  if (r.reason.empty()) {
+    r.reason = num_rings_error(l.num_rings);
     r.offset = l.num_rings_at;
   }
   for (std::size_t i = 0; r.reason.empty() && i < l.times; ++i) {
-    const float t = big_endian_float(bytes + l.times_at + 4 * i);
-    if (!(std::abs(t) <= kMaxPointTimeOffset)) {  // NaN fails too
-      r.reason = "point_cloud_t time_offset " + std::to_string(t) + " s is not finite or beyond " + std::to_string(kMaxPointTimeOffset) + " s";
-      r.offset = l.times_at + 4 * i;
-    }
+    r.reason = point_time_error(big_endian_float(bytes + l.times_at + 4 * i));
+    r.offset = l.times_at + 4 * i;
   }
   r.ok = r.reason.empty();
+  if (r.ok) r.offset = 0;
   return r;
 }
 
