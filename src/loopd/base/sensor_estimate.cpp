@@ -159,8 +159,8 @@ std::vector<double> histogram_rings(const std::vector<float>& e, double lo, doub
 }
 
 /// Sampled returns of the beam that has the most: those within a third of the spacing (at most 0.15 deg) of its elevation.
-/// The windows of neighbouring beams do not overlap (each is at most a third of the gap), so each return is counted
-/// against the two beams around it: O(returns log beams), no sort of the returns.
+/// The windows of neighbouring beams do not overlap (each is at most a third of the gap), so each return can only lie
+/// in the last window that starts at or below it: O(returns log beams), no sort of the returns.
 std::size_t fullest_beam(const std::vector<float>& e, const std::vector<double>& beams) {
   if (beams.empty()) return 0;
   std::vector<float> lo(beams.size()), hi(beams.size());
