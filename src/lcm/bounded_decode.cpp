@@ -22,12 +22,6 @@ void walk(WireWalker& w, const DecodeLimits&, const pose_t*) {
   w.skip("covariance", 8, 36);
 }
 
-/// point_cloud_t up to num_rings: the whole of version 1 (before `num_point_times` and `time_offset` were appended).
-/// Returns num_points.
-std::int64_t walk_point_cloud_v1(WireWalker& w, const DecodeLimits& limits) {
-  return static_cast<std::int64_t>(walk_point_cloud(w, limits, false).points);
-}
-
 void walk(WireWalker& w, const DecodeLimits& limits, const point_cloud_t*) { walk_point_cloud(w, limits, true); }
 
 /// loop_event_t up to ms_total: the whole of version 1 (before the sessions, `retrieval` and `place_distance`).
@@ -268,7 +262,7 @@ DecodeResult decode_any_loop_event(const void* data, std::size_t size, const Dec
 }
 
 DecodeResult decode_point_cloud_v1(const void* data, std::size_t size, const DecodeLimits& limits, point_cloud_t* out) {
-  DecodeResult proof = prove_old_layout(data, size, kPointCloudV1Hash, [&](WireWalker& w) { walk_point_cloud_v1(w, limits); });
+  DecodeResult proof = prove_old_layout(data, size, kPointCloudV1Hash, [&](WireWalker& w) { walk_point_cloud(w, limits, false); });
   if (!proof.ok) return proof;
   // Today's layout of the same message: the new fingerprint, the version-1 fields, num_point_times = 0 (no times).
   std::vector<std::uint8_t> upgraded = with_fingerprint(data, size, point_cloud_t::getHash());

@@ -48,7 +48,6 @@ std::string num_rings_error(std::int64_t num_rings) {
 }
 
 std::string point_time_error(float t) {
-  if (std::abs(t) <= kMaxPointTimeOffset) return "";  // NaN fails
   return "point_cloud_t time_offset " + std::to_string(t) + " s is not finite or beyond " + std::to_string(kMaxPointTimeOffset) + " s";
 }
 
@@ -67,8 +66,9 @@ bool from_message(const point_cloud_t& msg, PointCloud* cloud, std::string* erro
     return false;
   }
   for (std::size_t i = 0; has_times && i < n; ++i) {
+    if (point_time_ok(msg.time_offset[i])) continue;
     *error = point_time_error(msg.time_offset[i]);
-    if (!error->empty()) return false;
+    return false;
   }
   *cloud = PointCloud();
   cloud->points.resize(n);

@@ -1,4 +1,5 @@
 #pragma once
+#include <cmath>
 #include <cstdint>
 #include <string>
 
@@ -37,7 +38,9 @@ point_cloud_t to_message(const PointCloud& cloud, std::int64_t utime, std::int64
 std::string ring_indices_error(std::int64_t num_points, std::int64_t num_ring_indices);
 /// num_rings within 0..kMaxRings.
 std::string num_rings_error(std::int64_t num_rings);
-/// A per-point time offset is finite and within kMaxPointTimeOffset of the stamp.
+/// A per-point time offset is finite and within kMaxPointTimeOffset of the stamp (inline: it runs for every point).
+inline bool point_time_ok(float time_offset) { return std::abs(time_offset) <= kMaxPointTimeOffset; }  // NaN fails
+/// Why `time_offset` fails point_time_ok.
 std::string point_time_error(float time_offset);
 
 /// @brief Validates array sizes and per-point times (finite, within kMaxPointTimeOffset); NaN points are kept (the

@@ -5,6 +5,7 @@
 #include <exception>
 #include <new>
 #include <string>
+#include <utility>
 
 #include <loopd/point_cloud_t.hpp>
 
@@ -47,18 +48,20 @@ PointCloudLayout walk_scan(WireWalker& w, const DecodeLimits& limits) {
 /// from_message's checks of the contents (the same rules, message_convert.hpp), with where each failed.
 DecodeResult check_contents(const std::uint8_t* bytes, const PointCloudLayout& l) {
   DecodeResult r;
-  r.reason = ring_indices_error(static_cast<std::int64_t>(l.points), static_cast<std::int64_t>(l.rings));
-  r.offset = l.ring_at - 4;
-  if (r.reason.empty()) {
-    r.reason = num_rings_error(l.num_rings);
-    r.offset = l.num_rings_at;
+  const auto fail = [&r](std::string reason, std::size_t offset) {
+    r.reason = std::move(reason);
+    r.offset = offset;
+    return r;
+  };
+  std::string reason = ring_indices_error(static_cast<std::int64_t>(l.points), static_cast<std::int64_t>(l.rings));
+  if (!reason.empty()) return fail(reason, l.ring_at - 4);
+  reason = num_rings_error(l.num_rings);
+  if (!reason.empty()) return fail(reason, l.num_rings_at);
+  for (std::size_t i = 0; i < l.times; ++i) {
+    const float t = big_endian_float(bytes + l.times_at + 4 * i);
+    if (!point_time_ok(t)) return fail(point_time_error(t), l.times_at + 4 * i);
   }
-  for (std::size_t i = 0; r.reason.empty() && i < l.times; ++i) {
-    r.reason = point_time_error(big_endian_float(bytes + l.times_at + 4 * i));
-    r.offset = l.times_at + 4 * i;
-  }
-  r.ok = r.reason.empty();
-  if (r.ok) r.offset = 0;
+  r.ok = true;
   return r;
 }
 
