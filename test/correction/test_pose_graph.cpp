@@ -3,6 +3,9 @@
 #include <catch2/catch.hpp>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
+#include <optional>
 
 #include "loopd/correction/loop_corrector.hpp"
 #include "loopd/correction/pose_graph.hpp"
@@ -370,4 +373,167 @@ TEST_CASE("segments: a second odometry segment moves rigidly onto its first loop
     REQUIRE(c.add_loop(loop).ok);
     for (std::size_t i = 0; i < 100; ++i) CHECK((c.corrected_poses()[i].translation() - truth[i].translation()).norm() < 0.05);
   }
+}
+
+namespace {
+/// The scenario's loops in the order they end, each with the keyframe it ends at.
+std::vector<LoopConstraint> loops_by_end(const Scenario& s, int stride) {
+  std::vector<LoopConstraint> loops = find_ground_truth_loops(s.gt, 1.0, 100, stride, 0);
+  std::stable_sort(loops.begin(), loops.end(), [](const LoopConstraint& a, const LoopConstraint& b) {
+    return std::max(a.query_index, a.match_index) < std::max(b.query_index, b.match_index);
+  });
+  return loops;
+}
+
+bool same_poses(const std::vector<Eigen::Isometry3d>& a, const std::vector<Eigen::Isometry3d>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (!a[i].matrix().isApprox(b[i].matrix(), 0.0) && a[i].matrix() != b[i].matrix()) return false;
+  return true;
+}
+}  // namespace
+
+TEST_CASE(
+    "heuristic+graph in the background: the solve is applied exactly graph_apply_after keyframes later, equals the solve a caller would have waited "
+    "for, and loses no loop") {
+  const Scenario s = make_scenario(900, 5);
+  const std::vector<LoopConstraint> loops = loops_by_end(s, 12);  // more than 10 keyframes apart
+  REQUIRE(loops.size() >= 20);
+  LoopCorrectorConfig cfg;
+  cfg.graph_apply_after = 10;
+  LoopCorrector c(cfg);
+  std::size_t next = 0;
+  int applied = 0, started_at = -1;
+  bool first_checked = false;
+  for (int i = 0; i < static_cast<int>(s.odom.poses.size()); ++i) {
+    const std::optional<CorrectionResult> a = c.apply_graph();
+    if (a) {
+      ++applied;
+      INFO("applied before keyframe " << i << ", started after keyframe " << started_at);
+      CHECK(i - (started_at + 1) == cfg.graph_apply_after);
+      CHECK(a->graph_solved);
+      CHECK(a->end_translation_error < 0.1);  // the loops since then are closed again on top of it
+      if (!first_checked && !a->graph_deferred) {
+        // No loop came in between: the first started_at + 1 poses are exactly what a caller that waited gets.
+        LoopCorrector waited{LoopCorrectorConfig{}};
+        for (int k = 0; k <= started_at; ++k)
+          waited.add_keyframe(s.odom.poses[static_cast<std::size_t>(k)], s.odom.residuals[static_cast<std::size_t>(k)]);
+        for (std::size_t l = 0; l < next; ++l) waited.add_loop(loops[l]);
+        const std::vector<Eigen::Isometry3d> head(c.corrected_poses().begin(), c.corrected_poses().begin() + started_at + 1);
+        CHECK(same_poses(head, waited.corrected_poses()));
+        first_checked = true;
+      }
+      if (c.graph_pending()) started_at = i - 1;  // loops came while it ran: the next solve starts from here
+    }
+    c.add_keyframe(s.odom.poses[static_cast<std::size_t>(i)], s.odom.residuals[static_cast<std::size_t>(i)]);
+    for (; next < loops.size() && std::max(loops[next].query_index, loops[next].match_index) == i; ++next) {
+      const bool was_pending = c.graph_pending();
+      const CorrectionResult r = c.add_loop(loops[next]);
+      REQUIRE(r.ok);
+      CHECK_FALSE(r.graph_solved);  // the caller never waits for a solve here
+      CHECK(r.end_translation_error < 0.1);
+      if (!was_pending && c.graph_pending()) started_at = i;
+    }
+  }
+  CHECK(first_checked);
+  CHECK(applied >= 3);
+  // At the end everything is solved at once; as good as solving inside add_loop.
+  LoopCorrector waited{LoopCorrectorConfig{}};
+  for (std::size_t k = 0; k < s.odom.poses.size(); ++k) waited.add_keyframe(s.odom.poses[k], s.odom.residuals[k]);
+  for (const LoopConstraint& l : loops) waited.add_loop(l);
+  REQUIRE(c.solve_all().ok);
+  REQUIRE(waited.solve_all().ok);
+  CHECK_FALSE(c.graph_pending());
+  const TrajectoryError before = trajectory_error(s.odom.poses, s.gt);
+  const TrajectoryError background = trajectory_error(c.corrected_poses(), s.gt), inline_solve = trajectory_error(waited.corrected_poses(), s.gt);
+  INFO("mean " << before.mean_closest << " -> " << background.mean_closest << " (solved inline " << inline_solve.mean_closest << ")");
+  CHECK(before.mean_closest / background.mean_closest >= 2.0);
+  CHECK(background.mean_closest <= inline_solve.mean_closest * 1.05 + 0.01);
+}
+
+TEST_CASE("heuristic+graph in the background: a corrector resumed while a solve was in flight goes on exactly as the one that never stopped") {
+  const Scenario s = make_scenario(700, 9);
+  const std::vector<LoopConstraint> loops = loops_by_end(s, 1);
+  LoopCorrectorConfig cfg;
+  cfg.graph_apply_after = 10;
+  LoopCorrector a(cfg);
+  std::optional<LoopCorrector> b;
+  std::size_t next = 0;
+  int resumed_at = -1, compared = 0;
+  for (int i = 0; i < static_cast<int>(s.odom.poses.size()); ++i) {
+    const auto ra = a.apply_graph();
+    if (b) {
+      const auto rb = b->apply_graph();
+      CHECK(ra.has_value() == rb.has_value());
+    }
+    a.add_keyframe(s.odom.poses[static_cast<std::size_t>(i)], s.odom.residuals[static_cast<std::size_t>(i)]);
+    if (b) b->add_keyframe(s.odom.poses[static_cast<std::size_t>(i)], s.odom.residuals[static_cast<std::size_t>(i)]);
+    for (; next < loops.size() && std::max(loops[next].query_index, loops[next].match_index) == i; ++next) {
+      REQUIRE(a.add_loop(loops[next]).ok);
+      if (b) REQUIRE(b->add_loop(loops[next]).ok);
+    }
+    if (!b && a.graph_pending() && a.loops().size() >= 15) {
+      // Stopped here: what a map store holds is the loops, the corrected poses and the state as bytes.
+      const DecodedResumeState state = decode_resume_state(encode_resume_state(a.resume_state()));
+      REQUIRE(state.ok);
+      REQUIRE(state.state.pending);
+      b.emplace(cfg);
+      for (int k = 0; k <= i; ++k) b->add_keyframe(s.odom.poses[static_cast<std::size_t>(k)], s.odom.residuals[static_cast<std::size_t>(k)]);
+      REQUIRE_FALSE(b->resume(a.loops(), a.corrected_poses(), state.state));
+      CHECK(b->graph_pending());
+      resumed_at = i;
+    }
+    if (b) {
+      CHECK(same_poses(a.corrected_poses(), b->corrected_poses()));
+      ++compared;
+    }
+  }
+  INFO("resumed after keyframe " << resumed_at);
+  REQUIRE(resumed_at > 0);
+  CHECK(compared > 100);
+  REQUIRE(a.solve_all().ok);
+  REQUIRE(b->solve_all().ok);
+  CHECK(same_poses(a.corrected_poses(), b->corrected_poses()));
+}
+
+TEST_CASE("corrector state: the solve in flight round-trips as bytes, a version-1 state still reads, damaged bytes are refused") {
+  CorrectorResumeState s;
+  s.max_end_index = 40;
+  s.last_graph_index = 40;
+  s.num_loops = 3;
+  s.closed_spans = {{2, 30}, {5, 40}};
+  const std::vector<std::uint8_t> plain = encode_resume_state(s);
+  CorrectorResumeState::Pending p;
+  p.poses = 3;
+  p.loops = 2;
+  p.spans = 1;
+  p.solve_again = true;
+  p.warm = {Eigen::Isometry3d::Identity(), Eigen::Isometry3d(Eigen::Translation3d(1.0 / 3.0, 2, 3)),
+            Eigen::Isometry3d(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()))};
+  s.pending = p;
+  const std::vector<std::uint8_t> bytes = encode_resume_state(s);
+  const DecodedResumeState d = decode_resume_state(bytes);
+  REQUIRE(d.ok);
+  REQUIRE(d.state.pending);
+  CHECK(d.state.pending->poses == 3);
+  CHECK(d.state.pending->loops == 2);
+  CHECK(d.state.pending->spans == 1);
+  CHECK(d.state.pending->solve_again);
+  CHECK(same_poses(d.state.pending->warm, p.warm));  // bit for bit: a resumed solve starts where the first one did
+  // Version 1 (before solves in flight): the same fields without the flag.
+  std::vector<std::uint8_t> v1(plain.begin(), plain.end() - 8);
+  v1[4] = 1;
+  const DecodedResumeState old = decode_resume_state(v1);
+  REQUIRE(old.ok);
+  CHECK_FALSE(old.state.pending);
+  CHECK(old.state.closed_spans.size() == 2);
+  for (std::size_t cut = 1; cut < bytes.size(); cut += 7) {
+    const DecodedResumeState t = decode_resume_state(std::vector<std::uint8_t>(bytes.begin(), bytes.end() - static_cast<std::ptrdiff_t>(cut)));
+    CHECK_FALSE(t.ok);
+    CHECK_FALSE(t.error.empty());
+  }
+  std::vector<std::uint8_t> nan = bytes;
+  const double q = std::numeric_limits<double>::quiet_NaN();
+  std::memcpy(&nan[nan.size() - 8], &q, 8);
+  CHECK_FALSE(decode_resume_state(nan).ok);
 }

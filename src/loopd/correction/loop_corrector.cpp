@@ -37,6 +37,7 @@ std::optional<std::string> LoopCorrectorConfig::validate() const {
   if (!(graph_interval_fraction >= 0.0 && graph_interval_fraction <= 1.0)) return "graph_interval_fraction must be in [0, 1]";
   if (!(graph_now_translation >= 0.0) || !(graph_now_rotation_deg >= 0.0)) return "graph_now_translation and graph_now_rotation_deg must be >= 0";
   if (!(join_information > 0.0 && join_information <= 1.0)) return "join_information must be in (0, 1]";
+  if (graph_apply_after < 0) return "graph_apply_after must be >= 0";
   return std::nullopt;
 }
 
@@ -154,12 +155,92 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
     r.method = CorrectionMethod::kHeuristic;
     r.graph_deferred = true;
     r.reason = "heuristic (graph deferred: solved " + std::to_string(e - last_graph_index_) + " keyframes ago)";
+  } else if (config_.method == CorrectionMethod::kHeuristicThenGraph && config_.graph_apply_after > 0) {
+    // The heuristic now; the solve on its own thread, applied graph_apply_after keyframes later (apply_graph).
+    corrected_ = std::move(warm);
+    r.method = CorrectionMethod::kHeuristic;
+    r.graph_deferred = true;
+    last_graph_index_ = e;
+    if (pending_) {
+      pending_->snapshot.solve_again = true;
+      r.reason = "heuristic (a pose-graph solve is running; another starts when it is applied)";
+    } else {
+      start_graph({static_cast<PoseIndex>(odometry_.size()), static_cast<std::int64_t>(loops_.size()), static_cast<std::int64_t>(planes_.size()),
+                   static_cast<std::int64_t>(closed_spans_.size()), false, corrected_});
+      r.reason = "heuristic (pose graph solving in the background, applied " + std::to_string(config_.graph_apply_after) + " keyframes later)";
+    }
   } else {
     r = run_graph(std::move(warm), r);
     last_graph_index_ = e;
   }
   r.ok = true;
   std::tie(r.end_translation_error, r.end_rotation_error) = loop_end_error(corrected_, loop);
+  return r;
+}
+
+void LoopCorrector::start_graph(CorrectorResumeState::Pending snapshot) {
+  const auto n = static_cast<std::size_t>(snapshot.poses);
+  const std::vector<Eigen::Isometry3d>& chain = chain_poses();
+  std::vector<Eigen::Isometry3d> poses(chain.begin(), chain.begin() + static_cast<std::ptrdiff_t>(n));
+  std::vector<double> residuals(residuals_.begin(), residuals_.begin() + static_cast<std::ptrdiff_t>(n));
+  std::vector<LoopConstraint> loops(loops_.begin(), loops_.begin() + snapshot.loops);
+  std::vector<PlaneObservation> planes(planes_.begin(), planes_.begin() + snapshot.planes);
+  std::vector<Information6d> information;
+  if (!step_information_.empty()) information.assign(step_information_.begin(), step_information_.begin() + static_cast<std::ptrdiff_t>(n));
+  std::vector<PoseIndex> starts;
+  for (PoseIndex s : segment_starts_)
+    if (s < snapshot.poses) starts.push_back(s);
+  InFlight f;
+  f.result = std::async(std::launch::async,
+                        [poses = std::move(poses), residuals = std::move(residuals), loops = std::move(loops), warm = snapshot.warm,
+                         graph = config_.graph, planes = std::move(planes), information = std::move(information), starts = std::move(starts)] {
+                          return optimize_pose_graph(poses, residuals, loops, warm, graph, planes, information, starts);
+                        });
+  f.snapshot = std::move(snapshot);
+  pending_ = std::move(f);
+}
+
+void LoopCorrector::drop_pending() {
+  if (!pending_) return;
+  pending_->result.wait();
+  pending_.reset();
+}
+
+std::optional<CorrectionResult> LoopCorrector::apply_graph(bool now) {
+  if (!pending_) return std::nullopt;
+  const CorrectorResumeState::Pending& snapshot = pending_->snapshot;
+  if (!now && static_cast<PoseIndex>(odometry_.size()) - snapshot.poses < config_.graph_apply_after) return std::nullopt;
+  const PoseGraphResult g = pending_->result.get();
+  const CorrectorResumeState::Pending done = std::move(pending_->snapshot);
+  pending_.reset();
+  CorrectionResult r;
+  r.method = CorrectionMethod::kGraph;
+  r.num_loops = static_cast<int>(loops_.size());
+  r.ms_graph = g.ms;
+  r.graph_iterations = g.iterations;
+  r.graph_converged = g.converged;
+  r.graph_solved = true;
+  r.reason = g.message;
+  const auto n = static_cast<std::size_t>(done.poses);
+  if (g.poses.size() == n && n > 0) {
+    // The keyframes added since move with the snapshot's newest one; the loops closed since close again on top.
+    const Eigen::Isometry3d T_solved_heuristic = g.poses.back() * corrected_[n - 1].inverse();
+    for (std::size_t i = 0; i < n; ++i) corrected_[i] = g.poses[i];
+    for (std::size_t i = n; i < corrected_.size(); ++i) corrected_[i] = T_solved_heuristic * corrected_[i];
+    closed_spans_.resize(static_cast<std::size_t>(done.spans));
+    const std::vector<double> base = heuristic_weights();
+    for (std::size_t k = static_cast<std::size_t>(done.loops); k < loops_.size(); ++k)
+      apply_heuristic_with_spans(corrected_, base, loops_[k], closed_spans_, config_.heuristic);
+  }
+  // Loops closed since then by the heuristic alone are not in this solve.
+  r.graph_deferred = static_cast<std::size_t>(done.loops) < loops_.size();
+  if (done.solve_again) {
+    last_graph_index_ = max_end_index_;
+    start_graph({static_cast<PoseIndex>(odometry_.size()), static_cast<std::int64_t>(loops_.size()), static_cast<std::int64_t>(planes_.size()),
+                 static_cast<std::int64_t>(closed_spans_.size()), false, corrected_});
+  }
+  r.ok = true;
+  if (!loops_.empty()) std::tie(r.end_translation_error, r.end_rotation_error) = loop_end_error(corrected_, loops_.back());
   return r;
 }
 
@@ -179,6 +260,8 @@ CorrectionResult LoopCorrector::add_loops(const std::vector<LoopConstraint>& loo
 }
 
 CorrectionResult LoopCorrector::solve_all() {
+  apply_graph(true);  // the solve in flight first: a nearer start for the last one
+  drop_pending();     // (and not another one it started)
   CorrectionResult r;
   r.method = CorrectionMethod::kGraph;
   r.num_loops = static_cast<int>(loops_.size());
@@ -194,6 +277,7 @@ CorrectionResult LoopCorrector::solve_all() {
 }
 
 CorrectionResult LoopCorrector::recorrect_all() {
+  drop_pending();  // everything is solved again from the chain
   CorrectionResult r;
   r.method = config_.method;
   r.num_loops = static_cast<int>(loops_.size());

@@ -2,6 +2,7 @@
 // Keeps the keyframe trajectory and all accepted loops, and re-corrects on each new loop.
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <future>
 #include <optional>
 #include <string>
 #include <vector>
@@ -38,6 +39,12 @@ struct LoopCorrectorConfig {
   /// Information of the step that joins two odometry segments (add_segment_start), per axis: weak enough that loops
   /// alone place a segment (1e-6: sigma 1000 m / 1000 rad), strong enough to keep an unplaced segment's gauge fixed.
   double join_information = 1e-6;
+  /// heuristic+graph, online: a due pose-graph solve runs on a thread of its own from a snapshot of the graph, and the
+  /// corrections go on with the heuristic meanwhile; its result is applied when this many more keyframes have been
+  /// added (waiting there if it has not finished, so a replay and a live run decide alike), or at solve_all(). The
+  /// keyframes added since move with the snapshot's newest one, and the loops closed since are closed again on top of it
+  /// by the heuristic. 0: the solve runs inside add_loop (the caller waits for it).
+  int graph_apply_after = 0;
   std::optional<std::string> validate() const;
 };
 
@@ -66,6 +73,17 @@ struct CorrectorResumeState {
   PoseIndex max_end_index = -1;          ///< newest loop end
   PoseIndex last_graph_index = -1;       ///< newest loop end when the graph was last solved
   std::int64_t num_loops = 0;            ///< loops the state covers
+  /// A pose-graph solve in flight (graph_apply_after > 0): its snapshot's sizes and start, so a resumed corrector
+  /// starts the same solve again and applies it at the same keyframe.
+  struct Pending {
+    PoseIndex poses = 0;                  ///< keyframes in the snapshot
+    std::int64_t loops = 0;               ///< loops in the snapshot
+    std::int64_t planes = 0;              ///< plane observations in the snapshot
+    std::int64_t spans = 0;               ///< closed spans when it started
+    bool solve_again = false;             ///< a loop since then was due a solve: another starts when this one is applied
+    std::vector<Eigen::Isometry3d> warm;  ///< the solve's starting poses (the heuristic's state when it started)
+  };
+  std::optional<Pending> pending;
 };
 
 /// @brief The state as bytes (little-endian, versioned) for a map store, and back; decode never throws.
@@ -126,6 +144,11 @@ class LoopCorrector {
   ///        loops heuristic+graph closed by the heuristic alone since the last solve join it, and so do the keyframes
   ///        added after the last loop). The heuristic method keeps its state (ok = false).
   CorrectionResult solve_all();
+  /// @brief graph_apply_after > 0: the solve in flight, once graph_apply_after keyframes were added after it started
+  ///        (or at once with `now`), applied to the current state (waiting for it). Nothing when none is due.
+  std::optional<CorrectionResult> apply_graph(bool now = false);
+  /// @brief A pose-graph solve is in flight.
+  bool graph_pending() const { return pending_.has_value(); }
 
   const std::vector<Eigen::Isometry3d>& corrected_poses() const { return corrected_; }
   const std::vector<Eigen::Isometry3d>& odometry_poses() const { return odometry_; }
@@ -154,6 +177,10 @@ class LoopCorrector {
 
  private:
   CorrectionResult run_graph(std::vector<Eigen::Isometry3d> warm, CorrectionResult r);
+  /// Starts a solve of the first `snapshot.poses` keyframes, `snapshot.loops` loops and `snapshot.planes` planes.
+  void start_graph(CorrectorResumeState::Pending snapshot);
+  /// Waits for the solve in flight and forgets it (the state is about to be rebuilt).
+  void drop_pending();
   std::vector<double> heuristic_weights() const;
 
   LoopCorrectorConfig config_;
@@ -169,6 +196,12 @@ class LoopCorrector {
   PoseIndex max_end_index_ = -1;
   PoseIndex last_graph_index_ = -1;  ///< newest loop end when the graph was last solved online
   std::vector<PoseIndex> segment_starts_;
+  /// The solve in flight (graph_apply_after > 0) and its snapshot.
+  struct InFlight {
+    CorrectorResumeState::Pending snapshot;
+    std::future<PoseGraphResult> result;
+  };
+  std::optional<InFlight> pending_;
 };
 
 }  // namespace loopd

@@ -1,4 +1,5 @@
 // Resuming a LoopCorrector after a restart: its small state to and from bytes, and restoring it.
+#include <cmath>
 #include <cstring>
 
 #include "loopd/correction/loop_corrector.hpp"
@@ -7,7 +8,7 @@ namespace loopd {
 namespace {
 
 constexpr std::uint32_t kResumeMagic = 0x4c435253;  // "SRCL"
-constexpr std::uint32_t kResumeVersion = 1;
+constexpr std::uint32_t kResumeVersion = 2;         ///< 2: a pose-graph solve in flight (1, without it, is read too)
 
 void put_u64(std::vector<std::uint8_t>& out, std::uint64_t v) {
   for (int i = 0; i < 8; ++i) out.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
@@ -18,6 +19,32 @@ bool get_u64(const std::vector<std::uint8_t>& in, std::size_t* at, std::uint64_t
   *v = 0;
   for (int i = 0; i < 8; ++i) *v |= static_cast<std::uint64_t>(in[*at + static_cast<std::size_t>(i)]) << (8 * i);
   *at += 8;
+  return true;
+}
+
+void put_pose(std::vector<std::uint8_t>& out, const Eigen::Isometry3d& T) {
+  const Eigen::Matrix4d& m = T.matrix();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) {
+      std::uint64_t bits = 0;
+      const double v = m(r, c);
+      std::memcpy(&bits, &v, sizeof bits);
+      put_u64(out, bits);
+    }
+}
+
+bool get_pose(const std::vector<std::uint8_t>& in, std::size_t* at, Eigen::Isometry3d* T) {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) {
+      std::uint64_t bits = 0;
+      if (!get_u64(in, at, &bits)) return false;
+      double v = 0.0;
+      std::memcpy(&v, &bits, sizeof v);
+      if (!std::isfinite(v)) return false;
+      m(r, c) = v;
+    }
+  T->matrix() = m;
   return true;
 }
 
@@ -41,6 +68,17 @@ std::vector<std::uint8_t> encode_resume_state(const CorrectorResumeState& state)
     put_u64(out, static_cast<std::uint64_t>(span.first));
     put_u64(out, static_cast<std::uint64_t>(span.second));
   }
+  put_u64(out, state.pending ? 1 : 0);
+  if (state.pending) {
+    const CorrectorResumeState::Pending& p = *state.pending;
+    put_u64(out, static_cast<std::uint64_t>(p.poses));
+    put_u64(out, static_cast<std::uint64_t>(p.loops));
+    put_u64(out, static_cast<std::uint64_t>(p.planes));
+    put_u64(out, static_cast<std::uint64_t>(p.spans));
+    put_u64(out, p.solve_again ? 1 : 0);
+    put_u64(out, p.warm.size());
+    for (const Eigen::Isometry3d& T : p.warm) put_pose(out, T);
+  }
   return out;
 }
 
@@ -52,7 +90,8 @@ DecodedResumeState decode_resume_state(const std::vector<std::uint8_t>& bytes) {
     r.error = "corrector state: not a corrector state";
     return r;
   }
-  if ((header >> 32) != kResumeVersion) {
+  const std::uint64_t version = header >> 32;
+  if (version != 1 && version != kResumeVersion) {
     r.error = "corrector state: version " + std::to_string(header >> 32) + ", this loopd reads " + std::to_string(kResumeVersion);
     return r;
   }
@@ -66,6 +105,30 @@ DecodedResumeState decode_resume_state(const std::vector<std::uint8_t>& bytes) {
   for (ClosedSpan& span : s.closed_spans) {
     get_i64(bytes, &at, &span.first);
     get_i64(bytes, &at, &span.second);
+  }
+  std::uint64_t pending = 0;
+  if (version >= 2 && (!get_u64(bytes, &at, &pending) || pending > 1)) {
+    r.error = "corrector state: truncated or inconsistent (" + std::to_string(bytes.size()) + " bytes)";
+    return r;
+  }
+  if (pending) {
+    CorrectorResumeState::Pending p;
+    std::uint64_t again = 0, warm = 0;
+    constexpr std::size_t kPoseBytes = 96;
+    if (!get_i64(bytes, &at, &p.poses) || !get_i64(bytes, &at, &p.loops) || !get_i64(bytes, &at, &p.planes) || !get_i64(bytes, &at, &p.spans) ||
+        !get_u64(bytes, &at, &again) || !get_u64(bytes, &at, &warm) || again > 1 || warm > (bytes.size() - at) / kPoseBytes || p.poses < 1 ||
+        static_cast<std::uint64_t>(p.poses) != warm || p.loops < 1 || p.planes < 0 || p.spans < 0) {
+      r.error = "corrector state: the solve in flight is truncated or inconsistent";
+      return r;
+    }
+    p.solve_again = again == 1;
+    p.warm.resize(static_cast<std::size_t>(warm));
+    for (Eigen::Isometry3d& T : p.warm)
+      if (!get_pose(bytes, &at, &T)) {
+        r.error = "corrector state: a starting pose of the solve in flight is not finite";
+        return r;
+      }
+    s.pending = std::move(p);
   }
   if (at != bytes.size()) {
     r.error = "corrector state: " + std::to_string(bytes.size() - at) + " trailing bytes";
@@ -81,6 +144,7 @@ CorrectorResumeState LoopCorrector::resume_state() const {
   s.max_end_index = max_end_index_;
   s.last_graph_index = last_graph_index_;
   s.num_loops = static_cast<std::int64_t>(loops_.size());
+  if (pending_) s.pending = pending_->snapshot;
   return s;
 }
 
@@ -96,11 +160,18 @@ std::optional<std::string> LoopCorrector::resume(const std::vector<LoopConstrain
   for (const ClosedSpan& span : state.closed_spans)
     if (span.first < 0 || span.second >= n || span.first > span.second) return "resume: closed span out of range";
   if (state.max_end_index >= n || state.last_graph_index >= n) return "resume: loop end out of range";
+  if (const auto& p = state.pending) {
+    if (p->poses > n || p->loops > state.num_loops || p->planes > static_cast<std::int64_t>(planes_.size()) ||
+        p->spans > static_cast<std::int64_t>(state.closed_spans.size()) || p->warm.size() != static_cast<std::size_t>(p->poses))
+      return "resume: the pose-graph solve in flight does not fit the map";
+  }
+  drop_pending();
   loops_ = loops;
   corrected_ = corrected;
   closed_spans_ = state.closed_spans;
   max_end_index_ = state.max_end_index;
   last_graph_index_ = state.last_graph_index;
+  if (state.pending) start_graph(*state.pending);  // the same solve again, applied at the same keyframe
   return std::nullopt;
 }
 

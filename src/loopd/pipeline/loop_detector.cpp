@@ -302,12 +302,12 @@ CorrectionOutput LoopDetector::correction_output(const CorrectionResult& result,
   c.ms = sw.ms();
   last_correction_event_id_ = loop_event_id;
   keyframes_at_correction_ = keyframes_.size();
-  correction_was_graph_ = result.graph_solved;
+  correction_was_graph_ = result.graph_solved && !result.graph_deferred;
   return c;
 }
 
 std::optional<CorrectionOutput> LoopDetector::final_correction() {
-  if (revision_ == 0 || (correction_was_graph_ && keyframes_at_correction_ == keyframes_.size())) return std::nullopt;
+  if (revision_ == 0 || (correction_was_graph_ && keyframes_at_correction_ == keyframes_.size() && !corrector_.graph_pending())) return std::nullopt;
   Stopwatch sw;
   const CorrectionResult result = corrector_.solve_all();
   if (!result.ok) return std::nullopt;
@@ -543,6 +543,11 @@ bool LoopDetector::confirm_prior_free_loop(const PriorFreeLoop& loop, LoopDecisi
 DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::shared_ptr<const KeyframeFeatures> features,
                                           const DecisionCallback& on_decided,
                                           const std::function<void(const KeyframeRecord&, const Eigen::Isometry3d&)>& on_placed) {
+  // A pose-graph solve that ran beside the last keyframes is applied first, at a fixed keyframe (replay = live).
+  Stopwatch apply_watch;
+  const std::optional<CorrectionResult> applied = corrector_.apply_graph();
+  if (applied) gate_.update_positions([this](const KeyframeKey& k) { return corrected(k).translation(); });
+  const double apply_ms = apply_watch.ms();
   // Vlaminck 2019 Sec. 4: the keyframe enters the map where the corrected odometry puts it.
   if (features && !features->ok) features.reset();
   std::optional<MeasuredStep> step;
@@ -563,6 +568,15 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
   }
   gate_.add({query.key, T_map_query.translation(), travelled_});
   if (out.correction) gate_.update_positions([this](const KeyframeKey& k) { return corrected(k).translation(); });
+  if (applied) {
+    if (!out.correction) {  // a revision of its own (its loop event: the newest correction's)
+      Stopwatch sw;
+      out.correction = correction_output(*applied, last_correction_event_id_, sw);
+    } else {
+      out.correction->graph_solved = true;  // this revision includes it (the engine frees memory after a solve)
+    }
+    out.correction->ms += apply_ms;
+  }
   return out;
 }
 

@@ -44,6 +44,9 @@ struct LoopDetectorConfig {
     verify.four_pcs.num_threads = 1;
     verify.gicp.num_threads = 1;
     correction.graph.num_threads = 1;
+    // The pose-graph solve beside the sequential stage, applied 10 keyframes (1-3 s of driving) after it started:
+    // on a long map it takes up to a second, and every scan behind it waited.
+    correction.graph_apply_after = 10;
   }
   /// Lidar model for the segmentation's range image: "auto" (read from each keyframe's scan, sensor_estimate.hpp), a
   /// preset (lidar_model_names()), or "custom" with sensor_elevations_deg.

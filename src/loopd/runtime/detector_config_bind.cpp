@@ -61,6 +61,7 @@ void bind_stage_configs(Binder& b, LoopDetectorConfig& d) {
            {{"cauchy", RobustLoss::kCauchy}, {"huber", RobustLoss::kHuber}, {"none", RobustLoss::kNone}});
   b.field("correction.graph_interval", c.graph_interval);
   b.field("correction.graph_interval_fraction", c.graph_interval_fraction);
+  b.field("correction.graph_apply_after", c.graph_apply_after);
   b.field("correction.graph_now_translation", c.graph_now_translation);
   b.field("correction.graph_now_rotation_deg", c.graph_now_rotation_deg);
   b.field("correction.graph.loop_loss_scale", c.graph.loop_loss_scale);

@@ -1,5 +1,6 @@
 #include "loopd/runtime/map_resume.hpp"
 
+#include <algorithm>
 #include <set>
 
 #include "loopd/base/stopwatch.hpp"
@@ -46,8 +47,18 @@ std::optional<std::string> restore_decisions(const KeyframeKey& query, const std
     }
     detector.restore_decision(d, d.information);
     if (!stored.present || d.event_id != stored.record.loop_event_id) continue;
+    if (!stored.record.keys.empty() && !(stored.record.keys.back() == query)) continue;  // made by a later keyframe (below)
     if (auto why = detector.resume_correction(stored.record.revision, stored.record.keys, stored.record.T_map_sensor, stored.state)) return *why;
     summary.revision = stored.record.revision;
+  }
+  // A revision made by a later keyframe than its loop's (a pose-graph solve applied there) is restored with that one.
+  if (stored.present && summary.revision == 0 && !stored.record.keys.empty() && stored.record.keys.back() == query) {
+    const bool loop_restored = std::any_of(loops.begin(), loops.begin() + static_cast<std::ptrdiff_t>(*next),
+                                           [&](const LoopDecision& d) { return d.event_id == stored.record.loop_event_id; });
+    if (loop_restored) {
+      if (auto why = detector.resume_correction(stored.record.revision, stored.record.keys, stored.record.T_map_sensor, stored.state)) return *why;
+      summary.revision = stored.record.revision;
+    }
   }
   return std::nullopt;
 }
