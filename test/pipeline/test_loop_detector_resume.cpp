@@ -64,27 +64,34 @@ void add(LoopDetector& detector, Step& k) {
 
 /// Restores keyframes [0, cut) into `detector` as the engine does from a map: each keyframe, then its decisions; the
 /// newest correction among them resumes, accepted loops after it are corrected again.
+/// A revision made by a pose-graph solve applied at a later keyframe than its loop's is restored with that keyframe.
 void restore(LoopDetector& detector, const std::vector<Step>& steps, std::size_t cut) {
   std::optional<std::int64_t> stored_loop;
   const CorrectionOutput* stored = nullptr;
   for (std::size_t i = 0; i < cut; ++i)
     if (steps[i].correction) stored = &*steps[i].correction;
   if (stored) stored_loop = stored->loop_event_id;
+  bool resumed = false;
+  const auto resume = [&] {
+    const auto why = detector.resume_correction(stored->revision, stored->keys, stored->T_map_sensor, stored->resume_state);
+    INFO(why.value_or(""));
+    REQUIRE_FALSE(why);
+    resumed = true;
+  };
   for (std::size_t i = 0; i < cut; ++i) {
     detector.restore_keyframe(steps[i].stored);
+    const bool made_here = stored && stored->keys.back() == steps[i].input.key;
     for (const LoopDecision& d : steps[i].decisions) {
       if (d.status == LoopStatus::kAccepted && (!stored_loop || d.event_id > *stored_loop)) {
         detector.reapply_loop(d, d.information);
         continue;
       }
       detector.restore_decision(d, d.information);
-      if (stored_loop && d.event_id == *stored_loop) {
-        const auto why = detector.resume_correction(stored->revision, stored->keys, stored->T_map_sensor, stored->resume_state);
-        INFO(why.value_or(""));
-        REQUIRE_FALSE(why);
-      }
+      if (stored_loop && d.event_id == *stored_loop && made_here) resume();
     }
+    if (made_here && !resumed) resume();
   }
+  CHECK(resumed == (stored != nullptr));
 }
 
 }  // namespace
@@ -95,6 +102,9 @@ TEST_CASE("loop detector: restored from what it stored, it goes on deciding exac
   std::vector<Step> steps = keyframes_of_drive(config);
   REQUIRE(steps.size() > 100);
 
+  // A stretch of the revisit without features (as if the scans were unusable): no loops there, so a pose-graph solve
+  // started before it is applied at a keyframe that makes no decision (a revision of its own).
+  for (std::size_t i = 73 * steps.size() / 100; i < 81 * steps.size() / 100; ++i) steps[i].features.reset();
   LoopDetector uninterrupted(config);
   for (Step& k : steps) add(uninterrupted, k);
   std::size_t accepted = 0, with_step = 0;
@@ -105,42 +115,56 @@ TEST_CASE("loop detector: restored from what it stored, it goes on deciding exac
   REQUIRE(accepted >= 10);
   CHECK(with_step >= steps.size() / 2);  // the steps the resumed detector must take from the records, not measure again
 
-  // Stops after two thirds of the drive: inside the revisit, with loops before and after the cut.
-  const std::size_t cut = 2 * steps.size() / 3;
-  LoopDetector resumed(config);
-  restore(resumed, steps, cut);
-  CHECK(resumed.num_keyframes() == cut);
-  CHECK(resumed.steps_measured() == static_cast<std::int64_t>(std::count_if(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(cut),
-                                                                            [](const Step& k) { return k.stored.step.has_value(); })));
-
-  std::size_t compared = 0, accepted_after = 0;
-  std::optional<CorrectionOutput> last_resumed, last_uninterrupted;
-  for (std::size_t i = cut; i < steps.size(); ++i) {
-    Step again = steps[i];
-    add(resumed, again);
-    INFO("keyframe " << i);
-    REQUIRE(again.decisions.size() == steps[i].decisions.size());
-    for (std::size_t j = 0; j < again.decisions.size(); ++j) {
-      const LoopDecision &a = again.decisions[j], &b = steps[i].decisions[j];
-      CHECK(a.event_id == b.event_id);
-      CHECK(a.match == b.match);
-      CHECK(a.status == b.status);
-      CHECK(a.stage == b.stage);
-      CHECK(a.T_match_query.matrix() == b.T_match_query.matrix());
-      accepted_after += a.status == LoopStatus::kAccepted ? 1 : 0;
-      ++compared;
-    }
-    CHECK(again.stored.step.has_value() == steps[i].stored.step.has_value());
-    if (again.correction) last_resumed = again.correction;
-    if (steps[i].correction) last_uninterrupted = steps[i].correction;
+  // Stops after two thirds of the drive (inside the revisit, with loops before and after the cut), right after the first
+  // revision a pose-graph solve made at a keyframe of its own, and while a solve is in flight.
+  std::size_t applied_here = 0, in_flight = 0;
+  for (std::size_t i = 0; i + 1 < steps.size(); ++i) {
+    const std::optional<CorrectionOutput>& c = steps[i].correction;
+    if (!c) continue;
+    const bool own_loop =
+        std::any_of(steps[i].decisions.begin(), steps[i].decisions.end(), [&](const LoopDecision& d) { return d.event_id == c->loop_event_id; });
+    if (!applied_here && !own_loop) applied_here = i + 1;
+    if (!in_flight && c->resume_state.pending && i > steps.size() / 2) in_flight = i + 1;
   }
-  CHECK(compared > 0);
-  CHECK(accepted_after > 0);
-  REQUIRE(last_resumed);
-  REQUIRE(last_uninterrupted);
-  CHECK(last_resumed->revision == last_uninterrupted->revision);
-  REQUIRE(last_resumed->T_map_sensor.size() == last_uninterrupted->T_map_sensor.size());
-  for (std::size_t i = 0; i < last_resumed->T_map_sensor.size(); ++i)
-    CHECK(last_resumed->T_map_sensor[i].matrix() == last_uninterrupted->T_map_sensor[i].matrix());
-  CHECK(resumed.T_map_odom().matrix() == uninterrupted.T_map_odom().matrix());
+  REQUIRE(applied_here > 0);
+  REQUIRE(in_flight > 0);
+  for (const std::size_t cut : {2 * steps.size() / 3, applied_here, in_flight}) {
+    INFO("stopped after " << cut << " keyframes");
+    LoopDetector resumed(config);
+    restore(resumed, steps, cut);
+    CHECK(resumed.num_keyframes() == cut);
+    CHECK(resumed.steps_measured() == static_cast<std::int64_t>(std::count_if(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(cut),
+                                                                              [](const Step& k) { return k.stored.step.has_value(); })));
+
+    std::size_t compared = 0, accepted_after = 0;
+    std::optional<CorrectionOutput> last_resumed, last_uninterrupted;
+    for (std::size_t i = cut; i < steps.size(); ++i) {
+      Step again = steps[i];
+      add(resumed, again);
+      INFO("keyframe " << i);
+      REQUIRE(again.decisions.size() == steps[i].decisions.size());
+      for (std::size_t j = 0; j < again.decisions.size(); ++j) {
+        const LoopDecision &a = again.decisions[j], &b = steps[i].decisions[j];
+        CHECK(a.event_id == b.event_id);
+        CHECK(a.match == b.match);
+        CHECK(a.status == b.status);
+        CHECK(a.stage == b.stage);
+        CHECK(a.T_match_query.matrix() == b.T_match_query.matrix());
+        accepted_after += a.status == LoopStatus::kAccepted ? 1 : 0;
+        ++compared;
+      }
+      CHECK(again.stored.step.has_value() == steps[i].stored.step.has_value());
+      if (again.correction) last_resumed = again.correction;
+      if (steps[i].correction) last_uninterrupted = steps[i].correction;
+    }
+    CHECK(compared > 0);
+    CHECK(accepted_after > 0);
+    REQUIRE(last_resumed);
+    REQUIRE(last_uninterrupted);
+    CHECK(last_resumed->revision == last_uninterrupted->revision);
+    REQUIRE(last_resumed->T_map_sensor.size() == last_uninterrupted->T_map_sensor.size());
+    for (std::size_t i = 0; i < last_resumed->T_map_sensor.size(); ++i)
+      CHECK(last_resumed->T_map_sensor[i].matrix() == last_uninterrupted->T_map_sensor[i].matrix());
+    CHECK(resumed.T_map_odom().matrix() == uninterrupted.T_map_odom().matrix());
+  }
 }
