@@ -167,7 +167,8 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
     } else {
       start_graph({static_cast<PoseIndex>(odometry_.size()), static_cast<std::int64_t>(loops_.size()), static_cast<std::int64_t>(planes_.size()),
                    static_cast<std::int64_t>(closed_spans_.size()), false, corrected_});
-      r.reason = "heuristic (pose graph solving in the background, applied " + std::to_string(config_.graph_apply_after) + " keyframes later)";
+      r.reason = "heuristic (pose graph solving in the background, applied " +
+                 std::to_string(graph_apply_lag(static_cast<PoseIndex>(odometry_.size()))) + " keyframes later)";
     }
   } else {
     r = run_graph(std::move(warm), r);
@@ -200,6 +201,10 @@ void LoopCorrector::start_graph(CorrectorResumeState::Pending snapshot) {
   pending_ = std::move(f);
 }
 
+int LoopCorrector::graph_apply_lag(PoseIndex snapshot_poses) const {
+  return std::max(config_.graph_apply_after, static_cast<int>(config_.graph_interval_fraction * static_cast<double>(snapshot_poses)));
+}
+
 void LoopCorrector::drop_pending() {
   if (!pending_) return;
   pending_->result.wait();
@@ -209,7 +214,7 @@ void LoopCorrector::drop_pending() {
 std::optional<CorrectionResult> LoopCorrector::apply_graph(bool now) {
   if (!pending_) return std::nullopt;
   const CorrectorResumeState::Pending& snapshot = pending_->snapshot;
-  if (!now && static_cast<PoseIndex>(odometry_.size()) - snapshot.poses < config_.graph_apply_after) return std::nullopt;
+  if (!now && static_cast<PoseIndex>(odometry_.size()) - snapshot.poses < graph_apply_lag(snapshot.poses)) return std::nullopt;
   const PoseGraphResult g = pending_->result.get();
   const CorrectorResumeState::Pending done = std::move(pending_->snapshot);
   pending_.reset();

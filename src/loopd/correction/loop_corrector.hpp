@@ -40,8 +40,10 @@ struct LoopCorrectorConfig {
   /// alone place a segment (1e-6: sigma 1000 m / 1000 rad), strong enough to keep an unplaced segment's gauge fixed.
   double join_information = 1e-6;
   /// heuristic+graph, online: a due pose-graph solve runs on a thread of its own from a snapshot of the graph, and the
-  /// corrections go on with the heuristic meanwhile; its result is applied when this many more keyframes have been
-  /// added (waiting there if it has not finished, so a replay and a live run decide alike), or at solve_all(). The
+  /// corrections go on with the heuristic meanwhile; its result is applied when max(this, graph_interval_fraction x the
+  /// snapshot's keyframes) more keyframes have been added (the solve's cost grows with the map, and so does the time it
+  /// is given; no solve is due sooner anyway), waiting there if it has not finished, so a replay and a live run decide
+  /// alike, or at solve_all(). The
   /// keyframes added since move with the snapshot's newest one, and the loops closed since are closed again on top of it
   /// by the heuristic. 0: the solve runs inside add_loop (the caller waits for it).
   int graph_apply_after = 0;
@@ -179,6 +181,8 @@ class LoopCorrector {
   CorrectionResult run_graph(std::vector<Eigen::Isometry3d> warm, CorrectionResult r);
   /// Starts a solve of the first `snapshot.poses` keyframes, `snapshot.loops` loops and `snapshot.planes` planes.
   void start_graph(CorrectorResumeState::Pending snapshot);
+  /// Keyframes after a solve of `snapshot_poses` keyframes started until it is applied.
+  int graph_apply_lag(PoseIndex snapshot_poses) const;
   /// Waits for the solve in flight and forgets it (the state is about to be rebuilt).
   void drop_pending();
   std::vector<double> heuristic_weights() const;
