@@ -541,3 +541,21 @@ TEST_CASE("corrector state: the solve in flight round-trips as bytes, a version-
   std::memcpy(&nan[nan.size() - 8], &q, 8);
   CHECK_FALSE(decode_resume_state(nan).ok);
 }
+
+TEST_CASE("graph: a start with a non-finite pose is never handed to Ceres (it would abort the process): solved from the chain instead") {
+  const Scenario s = make_scenario(900, 5);
+  REQUIRE_FALSE(s.loops.empty());
+  std::vector<Eigen::Isometry3d> start = s.odom.poses;
+  start[200].matrix()(0, 3) = std::numeric_limits<double>::quiet_NaN();
+  start[201].linear() = Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  const PoseGraphResult g = optimize_pose_graph(s.odom.poses, s.odom.residuals, s.loops, start, PoseGraphConfig{});
+  REQUIRE(g.poses.size() == s.odom.poses.size());
+  for (const Eigen::Isometry3d& T : g.poses) REQUIRE(T.matrix().allFinite());
+  CHECK(g.message.find("not finite") != std::string::npos);
+  const auto [t, r] = loop_end_error(g.poses, s.loops.front());
+  CHECK(t < 0.1);  // and it did solve
+  std::vector<Eigen::Isometry3d> chain = s.odom.poses;
+  chain[10].matrix()(1, 3) = std::numeric_limits<double>::infinity();
+  const PoseGraphResult refused = optimize_pose_graph(chain, s.odom.residuals, s.loops, {}, PoseGraphConfig{});
+  CHECK(refused.message.find("not solved") != std::string::npos);
+}

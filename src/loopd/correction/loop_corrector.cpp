@@ -229,13 +229,20 @@ std::optional<CorrectionResult> LoopCorrector::apply_graph(bool now) {
   const auto n = static_cast<std::size_t>(done.poses);
   if (g.poses.size() == n && n > 0) {
     // The keyframes added since move with the snapshot's newest one; the loops closed since close again on top.
-    const Eigen::Isometry3d T_solved_heuristic = g.poses.back() * corrected_[n - 1].inverse();
-    for (std::size_t i = 0; i < n; ++i) corrected_[i] = g.poses[i];
-    for (std::size_t i = n; i < corrected_.size(); ++i) corrected_[i] = T_solved_heuristic * corrected_[i];
-    closed_spans_.resize(static_cast<std::size_t>(done.spans));
+    std::vector<Eigen::Isometry3d> poses = corrected_;
+    std::vector<ClosedSpan> spans(closed_spans_.begin(), closed_spans_.begin() + done.spans);
+    const Eigen::Isometry3d T_solved_heuristic = g.poses.back() * poses[n - 1].inverse();
+    for (std::size_t i = 0; i < n; ++i) poses[i] = g.poses[i];
+    for (std::size_t i = n; i < poses.size(); ++i) poses[i] = T_solved_heuristic * poses[i];
     const std::vector<double> base = heuristic_weights();
     for (std::size_t k = static_cast<std::size_t>(done.loops); k < loops_.size(); ++k)
-      apply_heuristic_with_spans(corrected_, base, loops_[k], closed_spans_, config_.heuristic);
+      apply_heuristic_with_spans(poses, base, loops_[k], spans, config_.heuristic);
+    if (std::all_of(poses.begin(), poses.end(), [](const Eigen::Isometry3d& T) { return T.matrix().allFinite(); })) {
+      corrected_ = std::move(poses);
+      closed_spans_ = std::move(spans);
+    } else {
+      r.reason = "not applied: the solve and the loops since gave non-finite poses (" + r.reason + ")";
+    }
   }
   // Loops closed since then by the heuristic alone are not in this solve.
   r.graph_deferred = static_cast<std::size_t>(done.loops) < loops_.size();

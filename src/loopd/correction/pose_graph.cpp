@@ -222,7 +222,17 @@ PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odomet
   Stopwatch watch;
   PoseGraphResult result;
   const std::size_t n = odometry_poses.size();
-  const std::vector<Eigen::Isometry3d>& init = initial_guess.size() == n ? initial_guess : odometry_poses;
+  const auto finite = [](const std::vector<Eigen::Isometry3d>& poses) {
+    return std::all_of(poses.begin(), poses.end(), [](const Eigen::Isometry3d& T) { return T.matrix().allFinite(); });
+  };
+  // Ceres aborts the process (a CHECK, not an error) on a non-finite parameter block: such a start is never handed to it.
+  if (!finite(odometry_poses)) {
+    result.poses = initial_guess.size() == n ? initial_guess : odometry_poses;
+    result.message = "not solved: a chain pose is not finite";
+    return result;
+  }
+  const bool usable_guess = initial_guess.size() == n && finite(initial_guess);
+  const std::vector<Eigen::Isometry3d>& init = usable_guess ? initial_guess : odometry_poses;
   result.poses = init;
   if (auto err = config.validate()) {
     result.message = "invalid config: " + *err;
@@ -253,6 +263,12 @@ PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odomet
     result.poses = nodes;
   else
     fill_chains(odometry_poses, layout.anchors, nodes, odometry_covariance, config, result.poses);
+  if (!finite(result.poses)) {  // nothing non-finite leaves the solver: the start stays
+    result.poses = init;
+    result.converged = false;
+    result.message = "the solve gave non-finite poses; kept its start (" + result.message + ")";
+  }
+  if (initial_guess.size() == n && !usable_guess) result.message += " (the start given was not finite: solved from the chain)";
   result.ms = watch.ms();
   return result;
 }
