@@ -165,8 +165,7 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
       pending_->snapshot.solve_again = true;
       r.reason = "heuristic (a pose-graph solve is running; another starts when it is applied)";
     } else {
-      start_graph({static_cast<PoseIndex>(odometry_.size()), static_cast<std::int64_t>(loops_.size()), static_cast<std::int64_t>(planes_.size()),
-                   static_cast<std::int64_t>(closed_spans_.size()), false, corrected_});
+      start_graph(snapshot_now());
       r.reason = "heuristic (pose graph solving in the background, applied " +
                  std::to_string(graph_apply_lag(static_cast<PoseIndex>(odometry_.size()))) + " keyframes later)";
     }
@@ -199,6 +198,15 @@ void LoopCorrector::start_graph(CorrectorResumeState::Pending snapshot) {
                         });
   f.snapshot = std::move(snapshot);
   pending_ = std::move(f);
+}
+
+CorrectorResumeState::Pending LoopCorrector::snapshot_now() const {
+  return {static_cast<PoseIndex>(odometry_.size()),
+          static_cast<std::int64_t>(loops_.size()),
+          static_cast<std::int64_t>(planes_.size()),
+          static_cast<std::int64_t>(closed_spans_.size()),
+          false,
+          corrected_};
 }
 
 int LoopCorrector::graph_apply_lag(PoseIndex snapshot_poses) const {
@@ -248,8 +256,7 @@ std::optional<CorrectionResult> LoopCorrector::apply_graph(bool now) {
   r.graph_deferred = static_cast<std::size_t>(done.loops) < loops_.size();
   if (done.solve_again) {
     last_graph_index_ = max_end_index_;
-    start_graph({static_cast<PoseIndex>(odometry_.size()), static_cast<std::int64_t>(loops_.size()), static_cast<std::int64_t>(planes_.size()),
-                 static_cast<std::int64_t>(closed_spans_.size()), false, corrected_});
+    start_graph(snapshot_now());
   }
   r.ok = true;
   if (!loops_.empty()) std::tie(r.end_translation_error, r.end_rotation_error) = loop_end_error(corrected_, loops_.back());

@@ -181,6 +181,8 @@ class LoopCorrector {
   CorrectionResult run_graph(std::vector<Eigen::Isometry3d> warm, CorrectionResult r);
   /// Starts a solve of the first `snapshot.poses` keyframes, `snapshot.loops` loops and `snapshot.planes` planes.
   void start_graph(CorrectorResumeState::Pending snapshot);
+  /// The graph as it stands, as the snapshot of a solve.
+  CorrectorResumeState::Pending snapshot_now() const;
   /// Keyframes after a solve of `snapshot_poses` keyframes started until it is applied.
   int graph_apply_lag(PoseIndex snapshot_poses) const;
   /// Waits for the solve in flight and forgets it (the state is about to be rebuilt).
