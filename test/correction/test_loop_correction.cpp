@@ -1,6 +1,7 @@
 // Heuristic loop correction (Vlaminck 2019, Sec. 4.4) on synthetic drives with injected drift and their true loops.
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <random>
 
 #include "loopd/correction/loop_correction.hpp"
 #include "loopd/correction/loop_corrector.hpp"
@@ -174,6 +175,53 @@ TEST_CASE("heuristic: nested loops and a second loop over a corrected stretch ke
   for (std::size_t i = 0; i < s.odom.poses.size(); ++i) corrector.add_keyframe(s.odom.poses[i], s.odom.residuals[i]);
   for (const auto& l : loops) REQUIRE(corrector.add_loop(l).ok);
   for (const auto& l : loops) check_ends(corrector.corrected_poses(), l);
+}
+
+TEST_CASE("heuristic with closed spans: the edges kept closed are exactly those inside some span, with weight 0.3") {
+  // apply_heuristic_with_spans counts the spans over each edge with a difference array; here each edge is checked
+  // span by span instead, and the corrected poses must be bit-identical.
+  const Scenario s = make_scenario(600, 0, 11);
+  const std::vector<double> base = edge_weights(s.odom.poses, s.odom.residuals, {});
+  HeuristicCorrectionConfig config;
+  config.closed_span_weight = 0.3;  // not 0: a wrongly marked edge changes the poses
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<PoseIndex> index(0, 599);
+  for (int trial = 0; trial < 40; ++trial) {
+    std::vector<ClosedSpan> spans;
+    const int count = trial % 7 == 0 ? 0 : 1 + trial % 12;
+    for (int k = 0; k < count; ++k) {
+      const PoseIndex a = index(rng), b = index(rng);
+      spans.emplace_back(std::min(a, b), std::max(a, b));  // some of length 0, some beside the loop, some overlapping
+    }
+    LoopConstraint loop;
+    loop.match_index = index(rng) / 2;
+    loop.query_index = 300 + index(rng) / 2;
+    loop.T_match_query = s.gt[static_cast<std::size_t>(loop.match_index)].inverse() * s.gt[static_cast<std::size_t>(loop.query_index)];
+
+    std::vector<double> w = base;
+    const PoseIndex lo = loop.match_index, hi = loop.query_index;
+    bool any_free = false;
+    std::vector<bool> closed(w.size(), false);
+    for (PoseIndex i = lo + 1; i <= hi; ++i)
+      for (const ClosedSpan& span : spans)
+        if (span.first < i && i <= span.second) closed[static_cast<std::size_t>(i)] = true;
+    double free_total = 0.0;
+    for (PoseIndex i = lo + 1; i <= hi; ++i)
+      if (!closed[static_cast<std::size_t>(i)]) free_total += w[static_cast<std::size_t>(i)];
+    any_free = free_total > 0.0;
+    if (any_free && !spans.empty())
+      for (PoseIndex i = lo + 1; i <= hi; ++i)
+        if (closed[static_cast<std::size_t>(i)]) w[static_cast<std::size_t>(i)] *= config.closed_span_weight;
+    std::vector<Eigen::Isometry3d> expected = s.odom.poses;
+    REQUIRE(apply_heuristic_correction(expected, w, loop, config.rotate_positions).applied);
+
+    std::vector<Eigen::Isometry3d> got = s.odom.poses;
+    std::vector<ClosedSpan> got_spans = spans;
+    REQUIRE(apply_heuristic_with_spans(got, base, loop, got_spans, config).applied);
+    INFO("trial " << trial << ", " << spans.size() << " spans, loop " << lo << " -> " << hi);
+    REQUIRE(got_spans.size() == spans.size() + 1);
+    for (std::size_t i = 0; i < got.size(); ++i) REQUIRE(got[i].matrix() == expected[i].matrix());
+  }
 }
 
 TEST_CASE("LoopCorrector: later odometry poses map into the corrected frame") {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace loopd {
 
@@ -122,15 +123,22 @@ HeuristicCorrectionResult apply_heuristic_with_spans(std::vector<Eigen::Isometry
   w.resize(poses.size(), 1.0);
   if (config.closed_span_weight < 1.0 && !closed_spans.empty() && e > s) {
     // An edge (i-1, i) inside a closed span [a, b] (a < i <= b) keeps that loop closed when it takes no share.
-    std::vector<char> closed(static_cast<std::size_t>(e - s + 1), 0);
-    for (const auto& span : closed_spans)
-      for (PoseIndex i = std::max(span.first + 1, s + 1); i <= std::min(span.second, e); ++i) closed[static_cast<std::size_t>(i - s)] = 1;
+    // How many spans cover each edge, by a difference array: O(spans + e - s), not O(spans * overlap) (every loop of
+    // a long drive adds a span that may reach back to its first lap).
+    std::vector<std::int64_t> covers(static_cast<std::size_t>(e - s + 2), 0);
+    for (const auto& span : closed_spans) {
+      const PoseIndex from = std::max(span.first + 1, s + 1), to = std::min(span.second, e);
+      if (from > to) continue;
+      covers[static_cast<std::size_t>(from - s)] += 1;
+      covers[static_cast<std::size_t>(to - s + 1)] -= 1;
+    }
+    for (std::size_t k = 1; k < covers.size(); ++k) covers[k] += covers[k - 1];
     double free_total = 0.0;
     for (PoseIndex i = s + 1; i <= e; ++i)
-      if (!closed[static_cast<std::size_t>(i - s)]) free_total += w[static_cast<std::size_t>(i)];
+      if (covers[static_cast<std::size_t>(i - s)] == 0) free_total += w[static_cast<std::size_t>(i)];
     if (free_total > 0.0)
       for (PoseIndex i = s + 1; i <= e; ++i)
-        if (closed[static_cast<std::size_t>(i - s)]) w[static_cast<std::size_t>(i)] *= config.closed_span_weight;
+        if (covers[static_cast<std::size_t>(i - s)] > 0) w[static_cast<std::size_t>(i)] *= config.closed_span_weight;
   }
   HeuristicCorrectionResult r = apply_heuristic_correction(poses, w, loop, config.rotate_positions);
   if (r.applied) closed_spans.emplace_back(r.start_index, r.end_index);
