@@ -20,9 +20,11 @@ bool TrajectoryPublisher::snapshot_due(const CorrectionOutput& c, std::int64_t u
 bool TrajectoryPublisher::moved(std::size_t i, const Eigen::Isometry3d& T_map_sensor) const {
   if (i >= published_poses_.size()) return true;
   const Eigen::Isometry3d& before = published_poses_[i];
-  if ((T_map_sensor.translation() - before.translation()).norm() > config_.min_move) return true;
-  const double turn = Eigen::AngleAxisd(before.linear().transpose() * T_map_sensor.linear()).angle();
-  return turn * 180.0 / M_PI > config_.min_turn_deg;
+  if ((T_map_sensor.translation() - before.translation()).squaredNorm() > config_.min_move * config_.min_move) return true;
+  // The turn between them from the trace of R_before^T R (1 + 2 cos(angle)), without a rotation-to-axis conversion
+  // per keyframe: this runs over every keyframe of every revision.
+  const double cos_turn = 0.5 * ((before.linear().cwiseProduct(T_map_sensor.linear())).sum() - 1.0);
+  return cos_turn < std::cos(config_.min_turn_deg * M_PI / 180.0);
 }
 
 trajectory_t TrajectoryPublisher::build(const CorrectionOutput& c, std::int64_t utime, bool full) {

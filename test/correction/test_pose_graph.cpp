@@ -244,8 +244,14 @@ TEST_CASE("heuristic+graph online: the graph is re-solved at most once per max(g
     for (int i = 0; i < static_cast<int>(s.odom.poses.size()); ++i) {
       c.add_keyframe(s.odom.poses[static_cast<std::size_t>(i)], s.odom.residuals[static_cast<std::size_t>(i)]);
       for (; next < loops.size() && std::max(loops[next].query_index, loops[next].match_index) == i; ++next) {
+        const std::vector<Eigen::Isometry3d> before_loop = c.corrected_poses();
         const CorrectionResult r = c.add_loop(loops[next]);
         REQUIRE(r.ok);
+        // What the callers update after it (the gate): the poses before moved_from did not change, bit for bit.
+        CHECK(r.moved_from == (r.graph_deferred ? std::min(loops[next].query_index, loops[next].match_index) + 1 : 0));
+        for (PoseIndex k = 0; k < r.moved_from; ++k)
+          REQUIRE(before_loop[static_cast<std::size_t>(k)].matrix() == c.corrected_poses()[static_cast<std::size_t>(k)].matrix());
+        if (r.graph_deferred) CHECK(before_loop.back().matrix() != c.corrected_poses().back().matrix());
         const int interval = std::max(min_interval, static_cast<int>(fraction * (i + 1)));
         const bool far_off = r.start_translation_error > cfg.graph_now_translation || r.start_rotation_error > cfg.graph_now_rotation_deg * kDeg;
         INFO("loop ending at " << i << ": " << r.start_translation_error << " m off before, deferred " << r.graph_deferred);

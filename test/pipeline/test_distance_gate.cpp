@@ -2,7 +2,9 @@
 // gaps (Ren 2019, Sec. 3.4.1); the spatial hash must return exactly what a linear scan would.
 #include <catch2/catch.hpp>
 #include <algorithm>
+#include <cmath>
 #include <random>
+#include <vector>
 
 #include "loopd/pipeline/distance_gate.hpp"
 
@@ -93,6 +95,44 @@ TEST_CASE("after a correction the gate searches the corrected positions") {
   REQUIRE(c.size() == 1);
   CHECK(c[0].key.index == 0);
   CHECK(c[0].distance == Approx(5.0));
+}
+
+TEST_CASE("updating the moved entries only gives the same candidates, in the same order, as updating every entry") {
+  // Keyframes on a 200 m square; 30 corrections, each moving the entries from a random index on by a random shift
+  // (some cross into other cells, some stay); after each, many queries must get the same candidates from both gates.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> coord(-100.0, 100.0), shift(-25.0, 25.0);
+  DistanceGateConfig config;
+  DistanceGate all(config), moved(config);
+  std::vector<Eigen::Vector3d> positions;
+  for (int i = 0; i < 600; ++i) {
+    const GateEntry e{KeyframeKey{0, i}, Eigen::Vector3d(coord(rng), coord(rng), 0.0), 10.0 * i};
+    all.add(e);
+    moved.add(e);
+    positions.push_back(e.position);
+  }
+  int crossed = 0;
+  for (int round = 0; round < 30; ++round) {
+    const auto first = static_cast<std::size_t>(std::uniform_int_distribution<int>(0, 599)(rng));
+    const Eigen::Vector3d d(shift(rng), shift(rng), 0.0);
+    for (std::size_t i = first; i < positions.size(); ++i) {
+      const Eigen::Vector3d before = positions[i];
+      positions[i] += d * (static_cast<double>(i - first + 1) / static_cast<double>(positions.size() - first));
+      if (std::floor(before.x() / config.max_radius) != std::floor(positions[i].x() / config.max_radius)) ++crossed;
+    }
+    all.update_positions([&](const KeyframeKey& k) { return positions[static_cast<std::size_t>(k.index)]; });
+    moved.update_positions_from(first, [&](std::size_t i) { return positions[i]; });
+    for (int q = 0; q < 40; ++q) {
+      const GateEntry query{KeyframeKey{0, 5000}, Eigen::Vector3d(coord(rng), coord(rng), 0.0), 1e5};
+      const auto a = all.candidates(query, 30.0), b = moved.candidates(query, 30.0);
+      REQUIRE(a.size() == b.size());
+      for (std::size_t k = 0; k < a.size(); ++k) {
+        CHECK(a[k].key == b[k].key);
+        CHECK(a[k].distance == b[k].distance);
+      }
+    }
+  }
+  CHECK(crossed > 100);  // the cells did change: the test exercises the moves between cells
 }
 
 TEST_CASE("gate config refuses bad values") {

@@ -139,25 +139,23 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
       r.start_translation_error > config_.graph_now_translation || r.start_rotation_error > config_.graph_now_rotation_deg * kDegToRad;
   const int interval = std::max(config_.graph_interval, static_cast<int>(config_.graph_interval_fraction * static_cast<double>(odometry_.size())));
   const bool graph_due = last_graph_index_ < 0 || e - last_graph_index_ >= interval || far_off;
-  // Online case: apply the new loop to the current corrected state; closed spans keep earlier loops closed.
-  std::vector<Eigen::Isometry3d> warm = corrected_;
-  const std::vector<double> base = heuristic_weights();
+  // Online case: apply the new loop to the current corrected state (in place: the heuristic moves only the loop's
+  // keyframes and those after it); closed spans keep earlier loops closed.
+  const PoseIndex s = std::min(loop.query_index, loop.match_index);
   if (config_.method != CorrectionMethod::kGraph)
-    apply_heuristic_with_spans(warm, base, loop, closed_spans_, config_.heuristic);
+    apply_heuristic_with_spans(corrected_, heuristic_weights(), loop, closed_spans_, config_.heuristic);
   else
-    closed_spans_.emplace_back(std::min(loop.query_index, loop.match_index), e);
+    closed_spans_.emplace_back(s, e);
+  r.moved_from = s + 1;
   r.ms_heuristic = watch.ms();
   if (config_.method == CorrectionMethod::kHeuristic) {
-    corrected_ = std::move(warm);
     r.reason = "heuristic";
   } else if (config_.method == CorrectionMethod::kHeuristicThenGraph && !graph_due) {
-    corrected_ = std::move(warm);
     r.method = CorrectionMethod::kHeuristic;
     r.graph_deferred = true;
     r.reason = "heuristic (graph deferred: solved " + std::to_string(e - last_graph_index_) + " keyframes ago)";
   } else if (config_.method == CorrectionMethod::kHeuristicThenGraph && config_.graph_apply_after > 0) {
     // The heuristic now; the solve on its own thread, applied graph_apply_after keyframes later (apply_graph).
-    corrected_ = std::move(warm);
     r.method = CorrectionMethod::kHeuristic;
     r.graph_deferred = true;
     last_graph_index_ = e;
@@ -170,7 +168,8 @@ CorrectionResult LoopCorrector::add_loop(const LoopConstraint& loop) {
                  std::to_string(graph_apply_lag(static_cast<PoseIndex>(odometry_.size()))) + " keyframes later)";
     }
   } else {
-    r = run_graph(std::move(warm), r);
+    r = run_graph(corrected_, r);
+    r.moved_from = 0;
     last_graph_index_ = e;
   }
   r.ok = true;

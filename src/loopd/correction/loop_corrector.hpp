@@ -66,6 +66,10 @@ struct CorrectionResult {
   double start_rotation_error = 0;     ///< [rad]
   double end_translation_error = 0;    ///< [m] loop-end mismatch of the new loop after correction
   double end_rotation_error = 0;       ///< [rad]
+  /// The first keyframe whose corrected pose this correction may have changed (the poses before it are bit for bit
+  /// what they were): the loop's older end + 1 for the heuristic, 0 for a pose-graph solve. Lets the callers update
+  /// what depends on the poses (the gate's cells) for the moved keyframes only.
+  PoseIndex moved_from = 0;
 };
 
 /// @brief What a LoopCorrector needs, besides its keyframes, loops and corrected poses, to continue exactly where it

@@ -58,6 +58,22 @@ void DistanceGate::update_positions(const std::function<Eigen::Vector3d(const Ke
   rebuild();
 }
 
+void DistanceGate::update_positions_from(std::size_t first, const std::function<Eigen::Vector3d(std::size_t entry)>& position_of) {
+  for (std::size_t i = first; i < entries_.size(); ++i) {
+    GateEntry& e = entries_[i];
+    const Eigen::Vector3d p = position_of(i);
+    const CellKey before = key(e.position), after = key(p);
+    e.position = p;
+    if (before == after) continue;
+    // Each cell lists its entries in the order added, as rebuild() leaves it (candidates() keeps that order for ties).
+    std::vector<std::size_t>& from = cells_[before];
+    const auto it = std::lower_bound(from.begin(), from.end(), i);
+    if (it != from.end() && *it == i) from.erase(it);
+    std::vector<std::size_t>& to = cells_[after];
+    to.insert(std::lower_bound(to.begin(), to.end(), i), i);
+  }
+}
+
 void DistanceGate::rebuild() {
   cells_.clear();
   for (std::size_t i = 0; i < entries_.size(); ++i) cells_[key(entries_[i].position)].push_back(i);

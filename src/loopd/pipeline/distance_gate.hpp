@@ -59,6 +59,10 @@ class DistanceGate {
   void add(const GateEntry& entry);
   /// @brief Replaces every stored position with position_of(key) (after a loop correction).
   void update_positions(const std::function<Eigen::Vector3d(const KeyframeKey&)>& position_of);
+  /// @brief Replaces the stored positions of the entries from `first` on (in the order added) with position_of(entry):
+  /// after a correction that moved only those. An entry moves to another cell only when its cell changed, so the cost
+  /// is the moved entries', not the map's; the same candidates as update_positions.
+  void update_positions_from(std::size_t first, const std::function<Eigen::Vector3d(std::size_t entry)>& position_of);
   /// @brief Keyframes within `radius` of `query` that satisfy the index and travel gaps (within one session) and
   /// `accept` (empty: all), nearest first.
   /// @param travel_gap [m] the travel gap for this query (travel_gap()); negative: config's min_travel_gap.

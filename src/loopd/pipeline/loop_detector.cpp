@@ -187,7 +187,19 @@ const KeyframeRecord& LoopDetector::place_keyframe(const KeyframeInput& input, s
     if (!record.features->prepared_in_store) cache_->put(record.key, record.features);
     record.features = thinned(*record.features);
   }
+  record_pose_index_.push_back(pose_index(record.key));
   return keyframes_.add(std::move(record));
+}
+
+void LoopDetector::update_gate(PoseIndex moved_from) {
+  const std::vector<Eigen::Isometry3d>& poses = corrector_.corrected_poses();
+  if (gate_.size() != record_pose_index_.size()) {  // not one entry per keyframe record (not expected): every entry by key
+    gate_.update_positions([this, &poses](const KeyframeKey& k) { return poses[static_cast<std::size_t>(pose_index(k))].translation(); });
+    return;
+  }
+  const auto first = std::lower_bound(record_pose_index_.begin(), record_pose_index_.end(), moved_from) - record_pose_index_.begin();
+  gate_.update_positions_from(static_cast<std::size_t>(first),
+                              [this, &poses](std::size_t i) { return poses[static_cast<std::size_t>(record_pose_index_[i])].translation(); });
 }
 
 std::shared_ptr<const KeyframeFeatures> LoopDetector::thinned(const KeyframeFeatures& features) {
@@ -291,14 +303,16 @@ CorrectionOutput LoopDetector::correction_output(const CorrectionResult& result,
   c.sessions = session_alignments();
   c.resume_state = corrector_.resume_state();
   const std::vector<Eigen::Isometry3d>& corrected = corrector_.corrected_poses();
-  c.keys.reserve(keyframes_.size());
-  c.utimes.reserve(keyframes_.size());
-  c.T_map_sensor.reserve(keyframes_.size());
-  for (const KeyframeRecord& k : keyframes_.records()) {
-    c.keys.push_back(k.key);
-    c.utimes.push_back(k.utime);
-    c.T_map_sensor.push_back(corrected[static_cast<std::size_t>(pose_index(k.key))]);
+  const std::vector<KeyframeRecord>& records = keyframes_.records();
+  c.keys.resize(records.size());
+  c.utimes.resize(records.size());
+  c.T_map_sensor.resize(records.size());
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    c.keys[i] = records[i].key;
+    c.utimes[i] = records[i].utime;
+    c.T_map_sensor[i] = corrected[static_cast<std::size_t>(record_pose_index_[i])];
   }
+  correction_moved_from_ = result.moved_from;
   c.ms = sw.ms();
   last_correction_event_id_ = loop_event_id;
   keyframes_at_correction_ = keyframes_.size();
@@ -313,8 +327,7 @@ std::optional<CorrectionOutput> LoopDetector::final_correction() {
   if (!result.ok) return std::nullopt;
   CorrectionOutput c = correction_output(result, last_correction_event_id_, sw);
   c.method = "final";  // one pose-graph solve of everything, at the end of a run
-  gate_.update_positions(
-      [this](const KeyframeKey& k) { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(k))].translation(); });
+  update_gate(result.moved_from);
   return c;
 }
 
@@ -546,7 +559,7 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
   // A pose-graph solve that ran beside the last keyframes is applied first, at a fixed keyframe (replay = live).
   Stopwatch apply_watch;
   const std::optional<CorrectionResult> applied = corrector_.apply_graph();
-  if (applied) gate_.update_positions([this](const KeyframeKey& k) { return corrected(k).translation(); });
+  if (applied) update_gate(applied->moved_from);
   const double apply_ms = apply_watch.ms();
   // Vlaminck 2019 Sec. 4: the keyframe enters the map where the corrected odometry puts it.
   if (features && !features->ok) features.reset();
@@ -567,7 +580,7 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
     if (!gated.accepted && config_.retrieval.enabled) close_prior_free(query, T_map_query, gated, out, on_decided);
   }
   gate_.add({query.key, T_map_query.translation(), travelled_});
-  if (out.correction) gate_.update_positions([this](const KeyframeKey& k) { return corrected(k).translation(); });
+  if (out.correction) update_gate(correction_moved_from_);
   if (applied) {
     if (!out.correction) {  // a revision of its own (its loop event: the newest correction's)
       Stopwatch sw;

@@ -260,6 +260,9 @@ class LoopDetector {
   CorrectionOutput correction_output(const CorrectionResult& result, std::int64_t loop_event_id, const Stopwatch& sw);
   std::shared_ptr<const KeyframeFeatures> full_features(const KeyframeRecord& keyframe) const;
   PoseIndex pose_index(const KeyframeKey& key) const { return pose_index_.at(key); }
+  /// The gate's positions after a correction that moved the keyframes from pose `moved_from` on (its cost is the
+  /// moved keyframes', not the map's).
+  void update_gate(PoseIndex moved_from);
   bool guided(const KeyframeKey& query) const;
   LoopConstraint count_restored(const LoopDecision& decision, const Information6d& information);
 
@@ -272,6 +275,8 @@ class LoopDetector {
   LoopCorrector corrector_;
   KeyframeDatabase keyframes_;
   std::unordered_map<KeyframeKey, PoseIndex, KeyframeKeyHash> pose_index_;  ///< position in corrector_'s pose sequence
+  std::vector<PoseIndex> record_pose_index_;  ///< pose_index_ of keyframes_.records()[i] (and of the gate's entry i), increasing
+  PoseIndex correction_moved_from_ = 0;       ///< CorrectionResult::moved_from of the newest correction_output()
   double travelled_ = 0.0;
   double travelled_at_last_loop_ = 0.0;
   std::int64_t next_event_id_ = 0;

@@ -63,8 +63,7 @@ std::optional<std::string> LoopDetector::resume_correction(std::int64_t revision
   if (auto why = corrector_.resume(restored_loops_, corrected, state)) return why;
   restored_loops_.clear();
   revision_ = revision;
-  gate_.update_positions(
-      [this](const KeyframeKey& k) { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(k))].translation(); });
+  update_gate(0);
   return std::nullopt;
 }
 
@@ -75,8 +74,7 @@ std::optional<CorrectionOutput> LoopDetector::reapply_loop(const LoopDecision& d
   const CorrectionResult result = corrector_.add_loop(loop);
   if (!result.ok) return std::nullopt;
   CorrectionOutput c = correction_output(result, decision.event_id, sw);
-  gate_.update_positions(
-      [this](const KeyframeKey& k) { return corrector_.corrected_poses()[static_cast<std::size_t>(pose_index(k))].translation(); });
+  update_gate(result.moved_from);
   return c;
 }
 
