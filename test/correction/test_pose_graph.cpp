@@ -6,7 +6,15 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#include <thread>
 
+#if defined(__linux__)
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
+
+#include "loopd/base/thread_priority.hpp"
 #include "loopd/correction/loop_corrector.hpp"
 #include "loopd/correction/pose_graph.hpp"
 #include "loopd/correction/pose_graph_internal.hpp"
@@ -459,6 +467,25 @@ TEST_CASE(
   INFO("mean " << before.mean_closest << " -> " << background.mean_closest << " (solved inline " << inline_solve.mean_closest << ")");
   CHECK(before.mean_closest / background.mean_closest >= 2.0);
   CHECK(background.mean_closest <= inline_solve.mean_closest * 1.05 + 0.01);
+}
+
+TEST_CASE("the background solve's thread gives way: lower_this_thread_priority sets that thread's nice value only") {
+#if defined(__linux__)
+  const int before = getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+  int in_thread = -100;
+  bool lowered = false;
+  std::thread t([&] {
+    lowered = lower_this_thread_priority(19);
+    in_thread = getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+  });
+  t.join();
+  CHECK(lowered);
+  CHECK(in_thread == 19);
+  CHECK(getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))) == before);  // the caller keeps its own
+  LoopCorrectorConfig bad;
+  bad.graph_solve_nice = 20;
+  CHECK(bad.validate());
+#endif
 }
 
 TEST_CASE("heuristic+graph in the background: a corrector resumed while a solve was in flight goes on exactly as the one that never stopped") {

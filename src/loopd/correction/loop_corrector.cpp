@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "loopd/base/stopwatch.hpp"
+#include "loopd/base/thread_priority.hpp"
 #include "loopd/correction/trajectory_tools.hpp"
 
 namespace loopd {
@@ -38,6 +39,7 @@ std::optional<std::string> LoopCorrectorConfig::validate() const {
   if (!(graph_now_translation >= 0.0) || !(graph_now_rotation_deg >= 0.0)) return "graph_now_translation and graph_now_rotation_deg must be >= 0";
   if (!(join_information > 0.0 && join_information <= 1.0)) return "join_information must be in (0, 1]";
   if (graph_apply_after < 0) return "graph_apply_after must be >= 0";
+  if (graph_solve_nice < 0 || graph_solve_nice > 19) return "graph_solve_nice must be in [0, 19]";
   return std::nullopt;
 }
 
@@ -190,11 +192,12 @@ void LoopCorrector::start_graph(CorrectorResumeState::Pending snapshot) {
   for (PoseIndex s : segment_starts_)
     if (s < snapshot.poses) starts.push_back(s);
   InFlight f;
-  f.result = std::async(std::launch::async,
-                        [poses = std::move(poses), residuals = std::move(residuals), loops = std::move(loops), warm = snapshot.warm,
-                         graph = config_.graph, planes = std::move(planes), information = std::move(information), starts = std::move(starts)] {
-                          return optimize_pose_graph(poses, residuals, loops, warm, graph, planes, information, starts);
-                        });
+  f.result = std::async(std::launch::async, [poses = std::move(poses), residuals = std::move(residuals), loops = std::move(loops),
+                                             warm = snapshot.warm, graph = config_.graph, planes = std::move(planes),
+                                             information = std::move(information), starts = std::move(starts), nice = config_.graph_solve_nice] {
+    if (nice > 0) lower_this_thread_priority(nice);
+    return optimize_pose_graph(poses, residuals, loops, warm, graph, planes, information, starts);
+  });
   f.snapshot = std::move(snapshot);
   pending_ = std::move(f);
 }

@@ -47,6 +47,9 @@ struct LoopCorrectorConfig {
   /// keyframes added since move with the snapshot's newest one, and the loops closed since are closed again on top of it
   /// by the heuristic. 0: the solve runs inside add_loop (the caller waits for it).
   int graph_apply_after = 0;
+  /// The background solve's thread runs at this nice value (0-19): it uses the CPU the pipeline leaves instead of taking
+  /// a core from it for as long as it runs, which grows with the map. The result and when it is applied do not change.
+  int graph_solve_nice = 19;
   std::optional<std::string> validate() const;
 };
 
