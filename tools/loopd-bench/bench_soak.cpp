@@ -461,6 +461,14 @@ struct Window {
   std::size_t latency_n = 0, events = 0;
 };
 
+/// Every verified keyframe's latency in OUT/latency.dat, to see whether slow ones come alone or in runs (a stall and
+/// the queue behind it).
+void write_latency(const std::string& out_dir, const std::vector<LatencySample>& latency) {
+  std::ofstream f(out_dir + "/latency.dat");
+  f << "# seconds_since_start latency_ms\n";
+  for (const auto& l : latency) f << l.t_s << ' ' << l.ms << '\n';
+}
+
 std::vector<Window> make_windows(const std::vector<Sample>& samples, const std::vector<double>& events, const std::vector<LatencySample>& latency,
                                  double window_s, double total_s) {
   std::vector<Window> out;
@@ -579,7 +587,7 @@ void add_options(CLI::App& app, SoakOptions& o) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 3600.0));
   app.add_option("--warmup-min", o.warmup_min, "minutes left out of the RSS fit (start-up allocations)")->capture_default_str();
-  app.add_option("--out", o.out_dir, "folder for the generated drive, loopd.log, soak.dat and soak_rss.png")->capture_default_str();
+  app.add_option("--out", o.out_dir, "folder for the generated drive, loopd.log, soak.dat, latency.dat and soak_rss.png")->capture_default_str();
   app.add_flag("--json", o.json, "one JSON object as the last stdout line");
 }
 
@@ -913,6 +921,7 @@ int run_bench_soak(int argc, char** argv) {
   const auto events = listener.event_times();
   const auto windows = make_windows(samples, events, latency, o.window_min * 60.0, run_s);
   print_windows(windows);
+  write_latency(o.out_dir, latency);
 
   const double warmup_s = std::min(o.warmup_min * 60.0, 0.2 * run_s);
   const RssFit fit = fit_rss(samples, warmup_s);
