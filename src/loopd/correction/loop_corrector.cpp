@@ -39,6 +39,7 @@ std::optional<std::string> LoopCorrectorConfig::validate() const {
   if (!(graph_now_translation >= 0.0) || !(graph_now_rotation_deg >= 0.0)) return "graph_now_translation and graph_now_rotation_deg must be >= 0";
   if (!(join_information > 0.0 && join_information <= 1.0)) return "join_information must be in (0, 1]";
   if (graph_apply_after < 0) return "graph_apply_after must be >= 0";
+  if (!(graph_apply_fraction >= 0.0 && graph_apply_fraction <= 1.0)) return "graph_apply_fraction must be in [0, 1]";
   if (graph_solve_nice < 0 || graph_solve_nice > 19) return "graph_solve_nice must be in [0, 19]";
   return std::nullopt;
 }
@@ -212,7 +213,7 @@ CorrectorResumeState::Pending LoopCorrector::snapshot_now() const {
 }
 
 int LoopCorrector::graph_apply_lag(PoseIndex snapshot_poses) const {
-  return std::max(config_.graph_apply_after, static_cast<int>(config_.graph_interval_fraction * static_cast<double>(snapshot_poses)));
+  return std::max(config_.graph_apply_after, static_cast<int>(config_.graph_apply_fraction * static_cast<double>(snapshot_poses)));
 }
 
 void LoopCorrector::drop_pending() {

@@ -40,13 +40,18 @@ struct LoopCorrectorConfig {
   /// alone place a segment (1e-6: sigma 1000 m / 1000 rad), strong enough to keep an unplaced segment's gauge fixed.
   double join_information = 1e-6;
   /// heuristic+graph, online: a due pose-graph solve runs on a thread of its own from a snapshot of the graph, and the
-  /// corrections go on with the heuristic meanwhile; its result is applied when max(this, graph_interval_fraction x the
+  /// corrections go on with the heuristic meanwhile; its result is applied when max(this, graph_apply_fraction x the
   /// snapshot's keyframes) more keyframes have been added (the solve's cost grows with the map, and so does the time it
-  /// is given; no solve is due sooner anyway), waiting there if it has not finished, so a replay and a live run decide
+  /// is given), waiting there if it has not finished, so a replay and a live run decide
   /// alike, or at solve_all(). The
   /// keyframes added since move with the snapshot's newest one, and the loops closed since are closed again on top of it
   /// by the heuristic. 0: the solve runs inside add_loop (the caller waits for it).
   int graph_apply_after = 0;
+  /// ... or this share of the snapshot's keyframes, if more. The application closes again, on the solved poses, every
+  /// loop closed meanwhile (each over its whole span, which on a route driven many times reaches back to the first
+  /// lap), so the keyframe that applies it waits for work that grows with this share times the map: a short lag keeps
+  /// that stall small, a long one gives the solve (on the CPU the pipeline leaves) more time.
+  double graph_apply_fraction = 0.005;
   /// The background solve's thread runs at this nice value (0-19): it uses the CPU the pipeline leaves instead of taking
   /// a core from it for as long as it runs, which grows with the map. The result and when it is applied do not change.
   int graph_solve_nice = 19;

@@ -44,9 +44,10 @@ struct LoopDetectorConfig {
     verify.four_pcs.num_threads = 1;
     verify.gicp.num_threads = 1;
     correction.graph.num_threads = 1;
-    // The pose-graph solve beside the sequential stage, applied 10 keyframes (1-3 s of driving) after it started:
-    // on a long map it takes up to a second, and every scan behind it waited.
-    correction.graph_apply_after = 10;
+    // The pose-graph solve beside the sequential stage, applied 25 keyframes (3-8 s of driving) after it started, or
+    // 0.5 % of the map's keyframes if more: on a long map it takes a second or more, and every scan behind it waited.
+    // A 6x soak with 10 waited up to 0.36 s for solves of 1,000-3,000 keyframes (on the CPU the pipeline leaves).
+    correction.graph_apply_after = 25;
   }
   /// Lidar model for the segmentation's range image: "auto" (read from each keyframe's scan, sensor_estimate.hpp), a
   /// preset (lidar_model_names()), or "custom" with sensor_elevations_deg.

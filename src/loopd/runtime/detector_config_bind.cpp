@@ -62,6 +62,7 @@ void bind_stage_configs(Binder& b, LoopDetectorConfig& d) {
   b.field("correction.graph_interval", c.graph_interval);
   b.field("correction.graph_interval_fraction", c.graph_interval_fraction);
   b.field("correction.graph_apply_after", c.graph_apply_after);
+  b.field("correction.graph_apply_fraction", c.graph_apply_fraction);
   b.field("correction.graph_solve_nice", c.graph_solve_nice);
   b.field("correction.graph_now_translation", c.graph_now_translation);
   b.field("correction.graph_now_rotation_deg", c.graph_now_rotation_deg);
