@@ -24,7 +24,7 @@ bool TrajectoryPublisher::moved(std::size_t i, const Eigen::Isometry3d& T_map_se
   // The turn between them from the trace of R_before^T R (1 + 2 cos(angle)), without a rotation-to-axis conversion
   // per keyframe: this runs over every keyframe of every revision.
   const double cos_turn = 0.5 * ((before.linear().cwiseProduct(T_map_sensor.linear())).sum() - 1.0);
-  return cos_turn < std::cos(config_.min_turn_deg * M_PI / 180.0);
+  return cos_turn < min_turn_cos_;
 }
 
 trajectory_t TrajectoryPublisher::build(const CorrectionOutput& c, std::int64_t utime, bool full) {

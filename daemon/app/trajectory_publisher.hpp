@@ -1,5 +1,6 @@
 #pragma once
 #include <Eigen/Geometry>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -27,7 +28,8 @@ struct TrajectoryPublisherStats {
 ///        exact corrected pose, and exactly it after a snapshot.
 class TrajectoryPublisher {
  public:
-  explicit TrajectoryPublisher(const TrajectoryPublisherConfig& config) : config_(config) {}
+  explicit TrajectoryPublisher(const TrajectoryPublisherConfig& config)
+      : config_(config), min_turn_cos_(std::cos(config.min_turn_deg * M_PI / 180.0)) {}
 
   /// @brief The message for one correction; utime is its publication time [us] (the snapshot clock).
   trajectory_t make_message(const CorrectionOutput& correction, std::int64_t utime);
@@ -44,6 +46,7 @@ class TrajectoryPublisher {
   trajectory_t build(const CorrectionOutput& c, std::int64_t utime, bool full);
 
   TrajectoryPublisherConfig config_;
+  double min_turn_cos_;                              ///< cos(min_turn_deg): moved() compares against it for every keyframe of every revision
   std::vector<KeyframeKey> published_keys_;          ///< keyframes published so far, in the correction's order
   std::vector<Eigen::Isometry3d> published_poses_;   ///< the pose each of them was last published with
   std::optional<std::int64_t> last_snapshot_utime_;  ///< [us]
