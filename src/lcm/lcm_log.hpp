@@ -63,6 +63,8 @@ struct LogReadStats {
 class LogReader {
  public:
   static constexpr std::int32_t kMaxChannelBytes = 1000;
+  /// Bytes of an event's header in the file: sync word, event number, timestamp, channel and data lengths.
+  static constexpr std::int64_t kEventHeaderBytes = 28;
   static constexpr std::int64_t kMaxEventBytes = std::int64_t{256} << 20;
 
   LogReader() = default;

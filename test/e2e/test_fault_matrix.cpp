@@ -445,7 +445,7 @@ TEST_CASE("fault matrix, replay: every input fault is counted, no wrong loop is 
   }
 }
 
-TEST_CASE("fault matrix, live: a 5x scan flood and a lossy drive beside lcm-logplayer") {
+TEST_CASE("fault matrix, live: a 5x scan flood and a lossy drive beside lcm-logplayer", "[live]") {
   if (loopd::test::run_quiet("ip route get 239.255.76.67 | grep -q 'dev lo'") != 0) {
     WARN(
         "skipped: multicast 239.255.76.0/24 is not routed through loopback (as root: ip link set lo multicast on; "

@@ -42,7 +42,7 @@ std::vector<StampedPose> truth_stream(const Drive& drive, int i, double from, do
   return poses;
 }
 
-struct Row {
+struct DeskewRow {
   std::string name;
   tools::Summary ms;
   double max_error = 0, mean_error = 0;
@@ -83,7 +83,7 @@ int run_bench_deskew(int argc, char** argv) {
   PointCloud distinct = raw;
   for (std::size_t k = 0; k < distinct.size(); ++k)
     distinct.time[k] -= 2.3e-6f * static_cast<float>(distinct.has_rings() ? distinct.ring[k] : k % 64);
-  std::vector<Row> rows;
+  std::vector<DeskewRow> rows;
   const auto add_row = [&](const std::string& name, const PointCloud& input, int bins, int runs) {
     DeskewConfig c;
     c.time_bins = bins;
@@ -95,7 +95,7 @@ int run_bench_deskew(int argc, char** argv) {
       if (bins >= 0) deskew(c, stream, utime, &out);
       ms.push_back(w.ms());
     }
-    Row row{name, tools::summarize(ms)};
+    DeskewRow row{name, tools::summarize(ms)};
     for (std::size_t k = 0; k < out.size(); ++k) {
       const double e = static_cast<double>((out.points[k] - truth.points[k]).norm());
       row.max_error = std::max(row.max_error, e);
@@ -113,7 +113,7 @@ int run_bench_deskew(int argc, char** argv) {
             << " deg in it; deskew moves points by up to " << fmt(moved.max_correction, 3) << " m\n";
   tools::Table table({"variant (10 Hz poses)", "median ms", "p95 ms", "max error vs truth [m]", "mean error [m]"});
   nlohmann::json variants = nlohmann::json::array();
-  for (const Row& r : rows) {
+  for (const DeskewRow& r : rows) {
     table.add({r.name, fmt(r.ms.median, 3), fmt(r.ms.p95, 3), fmt(r.max_error, 4), fmt(r.mean_error, 5)});
     variants.push_back(
         {{"variant", r.name}, {"median_ms", r.ms.median}, {"p95_ms", r.ms.p95}, {"max_error", r.max_error}, {"mean_error", r.mean_error}});

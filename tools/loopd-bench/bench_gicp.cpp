@@ -37,13 +37,6 @@ struct Pair {
   std::vector<Eigen::Isometry3d> inits;
 };
 
-/// Process CPU time [ms]: with one thread and a busy shared machine this is close to the wall time on an idle one.
-double cpu_ms() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
-}
-
 double rot_err_deg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return std::abs(Eigen::AngleAxisd(Eigen::Matrix3d(a.linear().transpose() * b.linear())).angle()) * 180.0 / M_PI;
 }
@@ -228,20 +221,20 @@ int run_bench_gicp(int argc, char** argv) {
     const auto sn = p.source.unpacked_normals(), tn = p.target.unpacked_normals();
     for (const auto& init : p.inits) {
       Stopwatch sw;
-      double c0 = cpu_ms();
+      double c0 = process_cpu_ms();
       const GicpResult a = align_gicp(p.source.points, p.target.points, init, gicp);
       const double ms_a = sw.ms();
-      record(&full, a.T_target_source, p.truth, ms_a, cpu_ms() - c0);
+      record(&full, a.T_target_source, p.truth, ms_a, process_cpu_ms() - c0);
       sw.reset();
-      c0 = cpu_ms();
+      c0 = process_cpu_ms();
       const GicpResult c = align_gicp(p.source.points, sn, p.target.points, tn, init, gicp);
-      record(&cached, c.T_target_source, p.truth, sw.ms(), cpu_ms() - c0);
+      record(&cached, c.T_target_source, p.truth, sw.ms(), process_cpu_ms() - c0);
       std::string pcl_err = "-", pcl_ms = "-";
       if (!no_pcl) {
-        const double c1 = cpu_ms();
+        const double c1 = process_cpu_ms();
         const bench::PclGicpResult q = bench::pcl_gicp_align(p.source.points, p.target.points, init, pcl_distance, 64, gicp.k_neighbors);
         if (q.available) {
-          record(&pcl, q.T_target_source, p.truth, q.ms, cpu_ms() - c1);
+          record(&pcl, q.T_target_source, p.truth, q.ms, process_cpu_ms() - c1);
           pcl_err = tools::fmt((q.T_target_source.translation() - p.truth.translation()).norm(), 3) + " / " +
                     tools::fmt(rot_err_deg(q.T_target_source, p.truth), 2);
           pcl_ms = tools::fmt(q.ms, 1);

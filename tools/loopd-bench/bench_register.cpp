@@ -39,7 +39,7 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-struct Pair {
+struct RegisterPair {
   std::string name;
   PointCloud query, match;  // raw scans
   Eigen::Isometry3d truth;  // T_match_query
@@ -68,8 +68,8 @@ void record(MethodStats* s, const Eigen::Isometry3d& estimate, const Eigen::Isom
   s->trans_err.push_back(trans);
 }
 
-std::vector<Pair> simulated_pairs(int n) {
-  std::vector<Pair> pairs;
+std::vector<RegisterPair> simulated_pairs(int n) {
+  std::vector<RegisterPair> pairs;
   const Town town = make_town(1);
   const LidarModel model = lidar_model_hdl64();
   const double yaws[] = {0, 45, 90, 135, 180};
@@ -78,7 +78,7 @@ std::vector<Pair> simulated_pairs(int n) {
     const Eigen::Isometry3d A = street_pose(town, place, 1 + k / 20, place % 2, 25.0);
     const double yaw_a = std::atan2(A.linear()(1, 0), A.linear()(0, 0));
     const Eigen::Isometry3d B = ground_pose(town, A.translation().x() + 1.41, A.translation().y() + 1.41, yaw_a + yaws[yaw_i] * kDeg);
-    Pair p;
+    RegisterPair p;
     p.name = "sim place " + std::to_string(place) + " yaw " + std::to_string(static_cast<int>(yaws[yaw_i]));
     p.match = simulate_scan(town, model, A, 7 + static_cast<std::uint64_t>(k), 1, 0);
     p.query = simulate_scan(town, model, B, 1000 + static_cast<std::uint64_t>(k), 1, 1);
@@ -88,8 +88,8 @@ std::vector<Pair> simulated_pairs(int n) {
   return pairs;
 }
 
-std::vector<Pair> kitti_pairs(const std::string& dir) {
-  std::vector<Pair> pairs;
+std::vector<RegisterPair> kitti_pairs(const std::string& dir) {
+  std::vector<RegisterPair> pairs;
   const int ids[][2] = {{1, 0}, {3, 2}, {95, 94}, {199, 198}};
   const double yaws[] = {0, 90, 180};
   const TrajectoryFile kitti = read_kitti_lidar_poses(dir + "/poses/00.txt", dir + "/calib/Tr_velo_to_cam_00-02.txt");
@@ -108,7 +108,7 @@ std::vector<Pair> kitti_pairs(const std::string& dir) {
     const PointCloud &q = read_q.cloud, &m = read_m.cloud;
     const double yaw = yaws[k++ % 3];
     const Eigen::Isometry3d R = make_isometry(0, 0, 0, yaw * kDeg);
-    Pair p;
+    RegisterPair p;
     p.name = "kitti " + std::to_string(id[0]) + "->" + std::to_string(id[1]) + " yaw " + std::to_string(static_cast<int>(yaw));
     p.query = transform(q, R);
     p.match = std::move(m);
@@ -139,8 +139,8 @@ int run_bench_register(int argc, char** argv) {
   const char* data_env = std::getenv("LOOPD_DATA_DIR");
   const std::string data_dir = data_env != nullptr ? data_env : "../shared/data";
 
-  std::vector<Pair> pairs = simulated_pairs(num_pairs);
-  std::vector<Pair> real;
+  std::vector<RegisterPair> pairs = simulated_pairs(num_pairs);
+  std::vector<RegisterPair> real;
   if (!no_kitti) real = kitti_pairs(data_dir + "/kitti");
   const std::size_t num_sim = pairs.size();
   for (auto& p : real) pairs.push_back(std::move(p));
@@ -156,7 +156,7 @@ int run_bench_register(int argc, char** argv) {
   pcl_cfg.max_seconds = pcl_seconds;
   tools::Progress progress("register", static_cast<std::int64_t>(pairs.size()), !json);
   for (std::size_t i = 0; i < pairs.size(); ++i) {
-    const Pair& p = pairs[i];
+    const RegisterPair& p = pairs[i];
     const LidarModel* model = i < num_sim ? &hdl64 : nullptr;  // KITTI: rings from binned elevations
     const PreparedScan q = prepare_scan(p.query, model, cfg.prepare);
     const PreparedScan m = prepare_scan(p.match, model, cfg.prepare);

@@ -28,11 +28,6 @@ struct Candidate {
   Eigen::Isometry3d Tm;
   int visit_m;
 };
-double cpu_ms() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
-}
 }  // namespace
 
 /// @brief The candidates: per street a same-direction revisit with cars moved, an opposite-direction one, one a lane
@@ -89,9 +84,9 @@ int run_bench_verify(int argc, char** argv) {
     const PreparedScan m =
         prepare_scan(simulate_scan(*c.match_town, model, c.Tm, 77 + static_cast<std::uint64_t>(done), threads, c.visit_m), &model, prep);
     bytes.push_back(static_cast<double>(q.bytes()));
-    const double c0 = cpu_ms();
+    const double c0 = process_cpu_ms();
     const VerifyResult r = verify(q, m, cfg);
-    cpu_total.push_back(cpu_ms() - c0);
+    cpu_total.push_back(process_cpu_ms() - c0);
     ms_fourpcs.push_back(r.ms_fourpcs);
     ms_gicp.push_back(r.ms_gicp);
     ms_hungarian.push_back(r.ms_hungarian);

@@ -17,8 +17,6 @@
 namespace loopd::tools {
 namespace {
 
-constexpr std::int64_t kEventHeaderBytes = 28;  // lcm-logger: sync, eventnum, timestamp, channel and data lengths
-
 std::int64_t file_bytes(const std::string& path) {
   std::error_code ec;
   const auto n = std::filesystem::file_size(path, ec);
@@ -53,7 +51,7 @@ bool read_drive_log(const std::string& path, const EvalChannels& ch, EvalInput* 
   pose_t pose_msg;
   while (reader.next(&ev)) {
     ++stats->events;
-    done += kEventHeaderBytes + static_cast<std::int64_t>(ev.channel.size() + ev.data.size());
+    done += LogReader::kEventHeaderBytes + static_cast<std::int64_t>(ev.channel.size() + ev.data.size());
     if (progress && (stats->events % 64) == 0) progress(done, total);
     if (ev.channel == ch.scan) {
       std::int64_t u = 0;
@@ -106,7 +104,7 @@ bool read_results_log(const std::string& path, const EvalChannels& ch, EvalInput
   std::unordered_map<std::int64_t, std::size_t> event_index;  ///< this log's event_id -> its place in input->loops
   while (reader.next(&ev)) {
     ++stats->events;
-    done += kEventHeaderBytes + static_cast<std::int64_t>(ev.channel.size() + ev.data.size());
+    done += LogReader::kEventHeaderBytes + static_cast<std::int64_t>(ev.channel.size() + ev.data.size());
     if (progress && (stats->events % 64) == 0) progress(done, total);
     if (ev.channel == ch.loop_event) {
       if (!LogReader::decode(ev, &loop_msg)) {

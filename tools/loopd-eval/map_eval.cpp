@@ -18,7 +18,6 @@
 namespace loopd::tools {
 namespace {
 
-constexpr std::int64_t kEventHeaderBytes = 28;                  // lcm-logger: sync, eventnum, timestamp, channel and data lengths
 constexpr std::size_t kMaxMoversBytes = std::size_t{64} << 20;  // a movers file is a few KB per moving car
 constexpr double kFrameWarning = 1.0;                           // [m] odometry this far from ground truth at the start: frames differ
 
@@ -95,7 +94,7 @@ bool stream_scans(const std::vector<std::string>& drives, const EvalChannels& ch
     LogEvent ev;
     point_cloud_t msg;
     while (reader.next(&ev)) {
-      done += kEventHeaderBytes + static_cast<std::int64_t>(ev.channel.size() + ev.data.size());
+      done += LogReader::kEventHeaderBytes + static_cast<std::int64_t>(ev.channel.size() + ev.data.size());
       if ((++events % 64) == 0) bar.update(total > 0 ? done * 100 / total : 0);
       if (ev.channel != ch.scan) continue;
       PointCloud cloud;

@@ -2,11 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include "loopd/base/angles.hpp"
 
 namespace loopd {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 /// n angles linearly spaced from lo to hi inclusive, appended to out.
 void append_linear(double lo, double hi, int n, std::vector<double>* out) {

@@ -10,11 +10,11 @@
 
 #include "../../../kernels/m2dp_shared.h"
 #include "loopd/descriptor/m2dp_internal.hpp"
+#include "loopd/base/angles.hpp"
 
 namespace loopd {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 /// Points closer than this to the centroid everywhere count as one point [m^2].
 constexpr double kMinExtent2 = 1e-10;
 /// Second principal value below this fraction of the first: collinear.

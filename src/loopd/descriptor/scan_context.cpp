@@ -7,11 +7,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include "loopd/base/angles.hpp"
 
 namespace loopd {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kMaxBinsPerAxis = 1024;  ///< bounds a config's size (a decoded one too): at most 1M bins
 constexpr float kMaxQuantised = 255.f;
 

@@ -7,9 +7,14 @@
 #include <vector>
 
 #include "loopd/io/binary_scalar.hpp"
+#include "loopd/io/header_text.hpp"
 
 namespace loopd {
 namespace {
+
+using header_text::at_byte;
+using header_text::at_line;
+using header_text::parse_uint;
 
 /// One FIELDS entry with its SIZE, TYPE and COUNT.
 struct PcdField {
@@ -33,9 +38,9 @@ struct PcdHeader {
   std::uint64_t values_per_point = 0;
 };
 
-constexpr std::uint64_t kMaxCount = 1u << 20;  // values of one field
+constexpr std::uint64_t kMaxFieldCount = 1u << 20;  // values of one field
 constexpr std::size_t kMaxFields = 4096;
-constexpr std::uint64_t kMaxPoints = std::uint64_t{1} << 40;
+constexpr std::uint64_t kMaxPcdPoints = std::uint64_t{1} << 40;
 
 std::vector<std::string> split_words(const std::string& line) {
   std::istringstream ss(line);
@@ -43,19 +48,6 @@ std::vector<std::string> split_words(const std::string& line) {
   std::string w;
   while (ss >> w) words.push_back(w);
   return words;
-}
-
-bool parse_uint(const std::string& s, std::uint64_t max, std::uint64_t* v) {
-  if (s.empty() || s.size() > 20) return false;
-  std::uint64_t r = 0;
-  for (char c : s) {
-    if (c < '0' || c > '9') return false;
-    const std::uint64_t d = static_cast<std::uint64_t>(c - '0');
-    if (r > (max - d) / 10) return false;
-    r = r * 10 + d;
-  }
-  *v = r;
-  return true;
 }
 
 bool scalar_from_pcd(char type, int size, ScalarType* t) {
@@ -90,8 +82,8 @@ std::string resolve_fields(const std::vector<std::string>& sizes, const std::vec
       return "field '" + f.name + "': SIZE " + sizes[i] + " TYPE " + types[i] + " is not a PCD number type (I/U of 1, 2, 4, 8 bytes; F of 4, 8)";
     f.size = static_cast<int>(size);
     f.type = types[i][0];
-    if (!counts.empty() && (!parse_uint(counts[i], kMaxCount, &f.count) || f.count == 0))
-      return "field '" + f.name + "': COUNT '" + counts[i] + "' must be an integer in [1, " + std::to_string(kMaxCount) + "]";
+    if (!counts.empty() && (!parse_uint(counts[i], kMaxFieldCount, &f.count) || f.count == 0))
+      return "field '" + f.name + "': COUNT '" + counts[i] + "' must be an integer in [1, " + std::to_string(kMaxFieldCount) + "]";
     f.offset = h->point_size;
     h->point_size += static_cast<std::uint64_t>(f.size) * f.count;
     h->values_per_point += f.count;
@@ -104,10 +96,10 @@ std::string resolve_point_count(PcdHeader* h) {
   if (!h->has_points) {
     if (!h->has_width) return "neither POINTS nor WIDTH is given";
     const std::uint64_t height = h->has_height ? h->height : 1;
-    if (height != 0 && h->width > kMaxPoints / height) return "WIDTH * HEIGHT is too large";
+    if (height != 0 && h->width > kMaxPcdPoints / height) return "WIDTH * HEIGHT is too large";
     h->points = h->width * height;
   } else if (h->has_width && h->has_height &&
-             (h->height == 0 ? h->width != 0 || h->points != 0 : h->width > kMaxPoints / h->height || h->width * h->height != h->points)) {
+             (h->height == 0 ? h->width != 0 || h->points != 0 : h->width > kMaxPcdPoints / h->height || h->width * h->height != h->points)) {
     return "POINTS " + std::to_string(h->points) + " is not WIDTH * HEIGHT (" + std::to_string(h->width) + " * " + std::to_string(h->height) + ")";
   }
   return {};
@@ -148,7 +140,7 @@ std::string parse_header(const std::string& bytes, PcdHeader* h, int* line_no) {
       counts = values;
     } else if (key == "WIDTH" || key == "HEIGHT" || key == "POINTS") {
       std::uint64_t v = 0;
-      if (values.size() != 1 || !parse_uint(values[0], kMaxPoints, &v))
+      if (values.size() != 1 || !parse_uint(values[0], kMaxPcdPoints, &v))
         return key + " must be one integer in [0, 2^40], got '" + (values.empty() ? std::string() : values[0]) + "'";
       if (key == "WIDTH") h->width = v, h->has_width = true;
       if (key == "HEIGHT") h->height = v, h->has_height = true;
@@ -213,9 +205,6 @@ int field_index(const PcdHeader& h, const std::string& name) {
     if (h.fields[i].name == name) return static_cast<int>(i);
   return -1;
 }
-
-std::string at_line(const std::string& source, int line) { return source + ":" + std::to_string(line) + ": "; }
-std::string at_byte(const std::string& source, std::size_t offset) { return source + ": byte offset " + std::to_string(offset) + ": "; }
 
 /// The x, y, z (required) and intensity (optional) fields.
 struct PcdWanted {

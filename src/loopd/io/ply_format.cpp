@@ -6,9 +6,14 @@
 #include <vector>
 
 #include "loopd/io/binary_scalar.hpp"
+#include "loopd/io/header_text.hpp"
 
 namespace loopd {
 namespace {
+
+using header_text::at_byte;
+using header_text::at_line;
+using header_text::parse_uint;
 
 struct PlyProperty {
   std::string name;
@@ -25,7 +30,7 @@ struct PlyElement {
 
 enum class PlyFormat { kAscii, kBinaryLittle, kBinaryBig };
 
-constexpr std::uint64_t kMaxCount = std::uint64_t{1} << 40;
+constexpr std::uint64_t kMaxElementCount = std::uint64_t{1} << 40;
 
 bool scalar_from_ply(const std::string& name, ScalarType* t) {
   static const std::pair<const char*, ScalarType> kNames[] = {
@@ -40,24 +45,6 @@ bool scalar_from_ply(const std::string& name, ScalarType* t) {
     }
   return false;
 }
-
-bool is_integer(ScalarType t) { return t != ScalarType::kFloat32 && t != ScalarType::kFloat64; }
-
-bool parse_uint(const std::string& s, std::uint64_t max, std::uint64_t* v) {
-  if (s.empty() || s.size() > 20) return false;
-  std::uint64_t r = 0;
-  for (char c : s) {
-    if (c < '0' || c > '9') return false;
-    const auto d = static_cast<std::uint64_t>(c - '0');
-    if (r > (max - d) / 10) return false;
-    r = r * 10 + d;
-  }
-  *v = r;
-  return true;
-}
-
-std::string at_line(const std::string& source, int line) { return source + ":" + std::to_string(line) + ": "; }
-std::string at_byte(const std::string& source, std::size_t offset) { return source + ": byte offset " + std::to_string(offset) + ": "; }
 
 /// Header: elements, format, and where the data start. Returns "" or the reason (line in *line_no).
 std::string parse_header(const std::string& bytes, std::vector<PlyElement>* elements, PlyFormat* format, std::size_t* data_offset, int* line_no) {
@@ -94,7 +81,7 @@ std::string parse_header(const std::string& bytes, std::vector<PlyElement>* elem
       has_format = true;
     } else if (w[0] == "element") {
       PlyElement e;
-      if (w.size() != 3 || !parse_uint(w[2], kMaxCount, &e.count)) return "element line needs '<name> <count>' with a count in [0, 2^40]";
+      if (w.size() != 3 || !parse_uint(w[2], kMaxElementCount, &e.count)) return "element line needs '<name> <count>' with a count in [0, 2^40]";
       e.name = w[1];
       elements->push_back(e);
     } else if (w[0] == "property") {
@@ -197,7 +184,7 @@ std::optional<std::string> read_ascii_row(TokenReader& tr, const std::string& so
       return at_line(source, tr.line()) + "the file ends in element '" + el.name + "' " + std::to_string(i) + " of " + std::to_string(el.count);
     std::uint64_t items = 1;
     if (prop.is_list) {
-      if (!parse_uint(tok, kMaxCount, &items))
+      if (!parse_uint(tok, kMaxElementCount, &items))
         return at_line(source, tr.line()) + "list length '" + tok.substr(0, 64) + "' of property '" + prop.name + "' is not a count";
     }
     for (std::uint64_t k = 0; k < items; ++k) {

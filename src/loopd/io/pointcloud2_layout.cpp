@@ -74,8 +74,6 @@ bool resolve(const PointFieldLayout& f, std::uint32_t point_step, FieldReader* r
   return true;
 }
 
-bool is_integer(ScalarType t) { return t != ScalarType::kFloat32 && t != ScalarType::kFloat64; }
-
 /// How a per-point time field is meant (see decode_pointcloud2's comment): unit and reference.
 struct TimeReader : FieldReader {
   double scale = 1.0;     ///< [s] per unit

@@ -18,11 +18,11 @@
 #include <nanoflann.hpp>
 
 #include "loopd/base/stopwatch.hpp"
+#include "loopd/base/angles.hpp"
 
 namespace loopd {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr float kHorizontalPlaneNz = 0.85f;  // |n_z| above this: a horizontal plane (ground, roofs)
 constexpr double kMinInvariant = 0.08;       // r1, r2 must lie in [kMinInvariant, 1 - kMinInvariant]
 constexpr int kScoreBlock = 8;               // candidates fully scored per block against a fixed best (determinism)

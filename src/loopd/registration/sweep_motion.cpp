@@ -8,11 +8,10 @@
 #include "loopd/base/pose.hpp"
 #include "loopd/base/stopwatch.hpp"
 #include "loopd/base/voxel_grid.hpp"
+#include "loopd/base/angles.hpp"
 
 namespace loopd {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 /// Voxel centroids of a sweep's finite, timed points within [min_range, max_range], each with its points' mean time
 /// and the normal of their scatter (zero where they form no plane: too few, or an edge, a corner, foliage).

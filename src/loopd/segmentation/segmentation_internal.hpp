@@ -11,14 +11,13 @@
 
 #include "loopd/base/point_cloud.hpp"
 #include "loopd/segmentation/segmentation.hpp"
+#include "loopd/base/angles.hpp"
 
 namespace loopd {
 
 struct LidarModel;  // loopd/base/lidar_model.hpp
 
 namespace detail {
-
-constexpr double kPi = 3.14159265358979323846;
 
 /// @brief Vector index of an int index (pixels, members and hull vertices are ints throughout the segmentation).
 inline std::size_t to_index(int i) { return static_cast<std::size_t>(i); }

@@ -6,21 +6,20 @@
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/mine.hpp"
 #include "loopd/sim/route.hpp"
+#include "loopd/base/angles.hpp"
 
 namespace loopd {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 constexpr double kMineLaneLateral = 0.0;   ///< [m] the mine route drives on the roadway centre line
 constexpr double kMineCornerRadius = 3.0;  ///< [m] its corners (junction chambers are ~7-12 m across)
 /// [m/s] 18 km/h, a mine vehicle's pace in a roadway: 10 m/s round a 3 m corner would be 3.4 g, and its 190 deg/s
 /// turn skews a sweep by 19 deg (at 5 m/s: 0.85 g, 9.5 deg).
 constexpr double kMineSpeed = 5.0;
 
-class Rng {
+class DriveRng {
  public:
-  explicit Rng(std::uint64_t seed) : state_(detail::mix64(seed ^ 0xD81FEull)) {}
+  explicit DriveRng(std::uint64_t seed) : state_(detail::mix64(seed ^ 0xD81FEull)) {}
   double uniform() { return detail::hash_uniform(detail::mix64(state_ += 0x9E3779B97F4A7C15ull)); }
   double gaussian() {
     const double u1 = std::max(uniform(), 1e-300), u2 = uniform();
@@ -82,14 +81,14 @@ double session_start_offset(const Drive& d) {
 
 /// The odometry step of a ground-truth increment: systematic bias, random walk, white noise (x `m` in a degraded
 /// stretch). Sets *injected to the random part (translation + 10 m * angles).
-Eigen::Isometry3d noisy_step(const Eigen::Isometry3d& delta, double m, const DriveConfig& config, Rng* rng, double* injected) {
+Eigen::Isometry3d noisy_step(const Eigen::Isometry3d& delta, double m, const DriveConfig& config, DriveRng* rng, double* injected) {
   const double dist = delta.translation().norm();
-  const double yaw_noise = m * config.yaw_random_walk_deg * kDeg * rng->gaussian();
-  const double yaw_err = config.heading_bias_deg_per_100m * kDeg * dist / 100.0 + yaw_noise;
+  const double yaw_noise = m * config.yaw_random_walk_deg * kRadPerDeg * rng->gaussian();
+  const double yaw_err = config.heading_bias_deg_per_100m * kRadPerDeg * dist / 100.0 + yaw_noise;
   const Eigen::Vector3d t_noise(m * config.translation_noise * rng->gaussian(), m * config.translation_noise * rng->gaussian(),
                                 0.3 * m * config.translation_noise * rng->gaussian());
-  const double pitch = m * config.pitch_roll_noise_deg * kDeg * rng->gaussian();
-  const double roll = m * config.pitch_roll_noise_deg * kDeg * rng->gaussian();
+  const double pitch = m * config.pitch_roll_noise_deg * kRadPerDeg * rng->gaussian();
+  const double roll = m * config.pitch_roll_noise_deg * kRadPerDeg * rng->gaussian();
   Eigen::Isometry3d noisy = delta;
   noisy.translation() = (1.0 + config.scale_bias) * delta.translation() + t_noise;
   noisy.linear() = (Eigen::AngleAxisd(yaw_err, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
@@ -105,7 +104,7 @@ Eigen::Isometry3d noisy_step(const Eigen::Isometry3d& delta, double m, const Dri
 void make_odometry(Drive* d) {
   const DriveConfig& config = d->config;
   const std::uint64_t seed = detail::hash_combine(config.seed, 0x0D0ull);
-  Rng rng(config.session == 1 ? seed : detail::hash_combine(seed, static_cast<std::uint64_t>(config.session)));
+  DriveRng rng(config.session == 1 ? seed : detail::hash_combine(seed, static_cast<std::uint64_t>(config.session)));
   Eigen::Isometry3d T_odo = config.session == 1 ? d->scans[0].T_world_sensor : Eigen::Isometry3d::Identity();
   const int reset = config.odometry_reset_at.value_or(-1);
   int burst_left = 0;

@@ -8,11 +8,11 @@
 #include <cmath>
 #include <limits>
 #include <vector>
+#include "loopd/base/angles.hpp"
 
 namespace loopd {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kGround = -1;
 constexpr int kNone = -2;

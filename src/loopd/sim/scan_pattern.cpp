@@ -3,12 +3,11 @@
 #include <cmath>
 
 #include "loopd/sim/town.hpp"
+#include "loopd/base/angles.hpp"
 
 namespace loopd {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 // Incommensurate rates [Hz]: the rosette's two prisms; the MID-360-like elevation sweep.
 constexpr double kPrismA = 173.137, kPrismB = -117.911, kElevationSweep = 1234.567;
 
@@ -30,7 +29,7 @@ std::vector<PatternRay> pattern_rays(const LidarModel& m, double period, std::ui
   const int lasers = m.num_rings, steps = m.azimuth_steps;
   const double dt = (period > 0.0 ? period : 0.1) / steps;
   const double t0 = 1000.0 * detail::hash_uniform(detail::mix64(seed ^ 0x5CA9ull));  // where in the endless pattern
-  const double el_lo = m.vertical_angles_deg[0] * kDeg, el_hi = m.vertical_angles_deg[1] * kDeg;
+  const double el_lo = m.vertical_angles_deg[0] * kRadPerDeg, el_hi = m.vertical_angles_deg[1] * kRadPerDeg;
   rays.reserve(static_cast<std::size_t>(lasers) * static_cast<std::size_t>(steps));
   for (int k = 0; k < steps; ++k) {
     const double t = t0 + k * dt;
@@ -41,8 +40,8 @@ std::vector<PatternRay> pattern_rays(const LidarModel& m, double period, std::ui
       if (m.pattern == LidarModel::ScanPattern::kRosette) {
         const double a = 2.0 * kPi * kPrismA * t, b = 2.0 * kPi * kPrismB * t;
         const double u = 0.5 * (std::cos(a) + std::cos(b)), v = 0.5 * (std::sin(a) + std::sin(b));  // within the unit disk
-        const double offset = (j - 0.5 * (lasers - 1)) * 1.5 * kDeg;
-        const double az = 0.5 * m.horizontal_fov_deg * kDeg * u + offset;
+        const double offset = (j - 0.5 * (lasers - 1)) * 1.5 * kRadPerDeg;
+        const double az = 0.5 * m.horizontal_fov_deg * kRadPerDeg * u + offset;
         const double el = 0.5 * (el_lo + el_hi) + 0.5 * (el_hi - el_lo) * v;
         ray.direction = direction(az, el);
       } else {

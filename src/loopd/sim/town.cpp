@@ -2,17 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include "loopd/base/angles.hpp"
 
 namespace loopd {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 /// Counter-based generator: deterministic on every platform (no std:: distributions, whose output is
 /// implementation-defined).
-class Rng {
+class TownRng {
  public:
-  explicit Rng(std::uint64_t seed) : state_(detail::mix64(seed ^ 0xA0761D6478BD642Full)) {}
+  explicit TownRng(std::uint64_t seed) : state_(detail::mix64(seed ^ 0xA0761D6478BD642Full)) {}
   std::uint64_t next() { return detail::mix64(state_ += 0x9E3779B97F4A7C15ull); }
   double uniform() { return detail::hash_uniform(next()); }
   double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
@@ -276,14 +275,14 @@ class TownBuilder {
 
  private:
   Town& t_;
-  Rng rng_;
+  TownRng rng_;
 };
 
 /// Rows of bushes (spheres sunk into the ground) on the inner edge of a share of the sidewalks, from their own random
 /// stream: they come after every other primitive, so that the rest of the town is the same with or without them.
 void add_bushes(Town* town) {
   const TownConfig& c = town->config;
-  Rng rng(detail::hash_combine(c.seed, 0xB05Eull));
+  TownRng rng(detail::hash_combine(c.seed, 0xB05Eull));
   const double hr = 0.5 * c.road_width;
   auto bush = [&](double x, double y, double radius) {
     Primitive p = make_sphere(Eigen::Vector3d(x, y, town->ground_height(x, y) + c.kerb_height + 0.4 * radius), radius,
@@ -315,7 +314,7 @@ void add_bushes(Town* town) {
 }
 
 /// Street line positions: `n` lines, line `origin` at 0, spacing uniform in [lo, hi].
-std::vector<double> street_lines(Rng* rng, int n, int origin, double lo, double hi) {
+std::vector<double> street_lines(TownRng* rng, int n, int origin, double lo, double hi) {
   std::vector<double> v(static_cast<std::size_t>(n), 0.0);
   for (int k = origin + 1; k < n; ++k) v[static_cast<std::size_t>(k)] = v[static_cast<std::size_t>(k - 1)] + rng->uniform(lo, hi);
   for (int k = origin - 1; k >= 0; --k) v[static_cast<std::size_t>(k)] = v[static_cast<std::size_t>(k + 1)] - rng->uniform(lo, hi);
@@ -438,7 +437,7 @@ Town make_town(const TownConfig& config) {
   Town town;
   town.name = "town-" + std::to_string(config.seed);
   town.config = config;
-  Rng rng(detail::hash_combine(config.seed, 0x7E57ull));
+  TownRng rng(detail::hash_combine(config.seed, 0x7E57ull));
   town.ground_z0 = 0.0;
   town.ground_gx = config.slope_x;
   town.ground_gy = config.slope_y;

@@ -9,8 +9,8 @@
 namespace loopd {
 namespace {
 
-constexpr char kMagic[4] = {'L', 'K', 'F', 'C'};
-constexpr std::size_t kHeaderBytes = 16;  // magic, u32 version, u64 payload bytes
+constexpr char kKeyframeMagic[4] = {'L', 'K', 'F', 'C'};
+constexpr std::size_t kKeyframeHeaderBytes = 16;  // magic, u32 version, u64 payload bytes
 
 /// @brief Little-endian writer of the payload.
 class Writer {
@@ -303,35 +303,35 @@ std::string decompress(const std::uint8_t* data, std::size_t size, std::size_t e
 std::vector<std::uint8_t> encode_features(const KeyframeFeatures& features, int zstd_level) {
   const std::vector<std::uint8_t> payload = write_payload(features);
   Writer header;
-  for (char c : kMagic) header.u8(static_cast<std::uint8_t>(c));
+  for (char c : kKeyframeMagic) header.u8(static_cast<std::uint8_t>(c));
   header.u32(kKeyframeCodecVersion);
   header.size(payload.size());
   std::vector<std::uint8_t> out = std::move(header.bytes());
   const std::size_t bound = ZSTD_compressBound(payload.size());
-  out.resize(kHeaderBytes + bound);
+  out.resize(kKeyframeHeaderBytes + bound);
   // With a content checksum (4 bytes): a flipped bit anywhere in the frame is refused, not decoded into other numbers.
   ZSTD_CCtx* cctx = ZSTD_createCCtx();
   ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, zstd_level);
   ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
   std::size_t n = 0;
   if (cctx) {
-    n = ZSTD_compress2(cctx, out.data() + kHeaderBytes, bound, payload.data(), payload.size());
+    n = ZSTD_compress2(cctx, out.data() + kKeyframeHeaderBytes, bound, payload.data(), payload.size());
     if (ZSTD_isError(n)) n = 0;
   }
   ZSTD_freeCCtx(cctx);
   // Fails only without memory (the bound rules out a short buffer): the blob then holds no frame and decodes as damaged.
-  out.resize(kHeaderBytes + n);
+  out.resize(kKeyframeHeaderBytes + n);
   return out;
 }
 
 DecodedFeatures decode_features(const std::uint8_t* data, std::size_t size, const KeyframeCodecLimits& limits) {
   DecodedFeatures out;
   try {
-    if (size < kHeaderBytes) {
-      out.error = "keyframe features: " + std::to_string(size) + " bytes, shorter than the " + std::to_string(kHeaderBytes) + "-byte header";
+    if (size < kKeyframeHeaderBytes) {
+      out.error = "keyframe features: " + std::to_string(size) + " bytes, shorter than the " + std::to_string(kKeyframeHeaderBytes) + "-byte header";
       return out;
     }
-    if (std::memcmp(data, kMagic, 4) != 0) {
+    if (std::memcmp(data, kKeyframeMagic, 4) != 0) {
       out.error = "keyframe features: bad magic at byte 0 (not a loopd keyframe blob)";
       return out;
     }
@@ -348,9 +348,9 @@ DecodedFeatures decode_features(const std::uint8_t* data, std::size_t size, cons
       return out;
     }
     std::vector<std::uint8_t> payload;
-    const std::string error = decompress(data + kHeaderBytes, size - kHeaderBytes, static_cast<std::size_t>(payload_bytes), payload);
+    const std::string error = decompress(data + kKeyframeHeaderBytes, size - kKeyframeHeaderBytes, static_cast<std::size_t>(payload_bytes), payload);
     if (!error.empty()) {
-      out.error = "keyframe features: " + error + " (compressed payload from byte " + std::to_string(kHeaderBytes) + ")";
+      out.error = "keyframe features: " + error + " (compressed payload from byte " + std::to_string(kKeyframeHeaderBytes) + ")";
       return out;
     }
     return read_payload(payload.data(), payload.size(), limits);

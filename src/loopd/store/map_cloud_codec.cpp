@@ -11,8 +11,8 @@
 namespace loopd {
 namespace {
 
-constexpr char kMagic[4] = {'L', 'M', 'P', 'C'};
-constexpr std::size_t kHeaderBytes = 4 + 4 + 4 + 4 + 1 + 4 + 8;
+constexpr char kMapCloudMagic[4] = {'L', 'M', 'P', 'C'};
+constexpr std::size_t kMapCloudHeaderBytes = 4 + 4 + 4 + 4 + 1 + 4 + 8;
 constexpr double kMaxQuantised = 1073741824.0;  // 2^30
 
 void put_le(std::vector<std::uint8_t>* out, std::uint64_t v, int bytes) {
@@ -106,7 +106,7 @@ std::vector<std::uint8_t> encode_map_cloud(const PointCloud& cloud, double quant
     payload.insert(payload.end(), s.begin(), s.end());
   }
   std::vector<std::uint8_t> out;
-  out.insert(out.end(), kMagic, kMagic + 4);
+  out.insert(out.end(), kMapCloudMagic, kMapCloudMagic + 4);
   put_le(&out, kMapCloudCodecVersion, 4);
   put_le(&out, float_bits(static_cast<float>(quantum)), 4);
   put_le(&out, float_bits(scale), 4);
@@ -145,13 +145,13 @@ std::string split_streams(const std::vector<std::uint8_t>& payload, std::array<V
 }  // namespace
 
 std::size_t map_cloud_blob_points(const std::uint8_t* data, std::size_t size) {
-  if (data == nullptr || size < kHeaderBytes || std::memcmp(data, kMagic, 4) != 0) return 0;
+  if (data == nullptr || size < kMapCloudHeaderBytes || std::memcmp(data, kMapCloudMagic, 4) != 0) return 0;
   return static_cast<std::size_t>(get_le(data + 17, 4));
 }
 
 DecodedMapCloud decode_map_cloud(const std::uint8_t* data, std::size_t size, const MapCloudCodecLimits& limits) {
-  if (size < kHeaderBytes || data == nullptr) return refuse(std::to_string(size) + " bytes, shorter than its header");
-  if (std::memcmp(data, kMagic, 4) != 0) return refuse("wrong magic (not a loopd map cloud)");
+  if (size < kMapCloudHeaderBytes || data == nullptr) return refuse(std::to_string(size) + " bytes, shorter than its header");
+  if (std::memcmp(data, kMapCloudMagic, 4) != 0) return refuse("wrong magic (not a loopd map cloud)");
   const auto version = static_cast<std::uint32_t>(get_le(data + 4, 4));
   if (version != kMapCloudCodecVersion)
     return refuse("version " + std::to_string(version) + ", this loopd reads " + std::to_string(kMapCloudCodecVersion));
@@ -168,10 +168,10 @@ DecodedMapCloud decode_map_cloud(const std::uint8_t* data, std::size_t size, con
   const std::uint64_t lo = 32 + count * (has_i ? 4u : 3u), hi = 32 + count * (has_i ? 40u : 30u);
   if (payload_bytes < lo || payload_bytes > hi || payload_bytes > limits.max_payload)
     return refuse("payload of " + std::to_string(payload_bytes) + " bytes does not fit " + std::to_string(count) + " points");
-  const unsigned long long frame = ZSTD_getFrameContentSize(data + kHeaderBytes, size - kHeaderBytes);
+  const unsigned long long frame = ZSTD_getFrameContentSize(data + kMapCloudHeaderBytes, size - kMapCloudHeaderBytes);
   if (frame != payload_bytes) return refuse("the zstd frame does not hold the " + std::to_string(payload_bytes) + " bytes the header names");
   std::vector<std::uint8_t> payload(static_cast<std::size_t>(payload_bytes));
-  const std::size_t n = ZSTD_decompress(payload.data(), payload.size(), data + kHeaderBytes, size - kHeaderBytes);
+  const std::size_t n = ZSTD_decompress(payload.data(), payload.size(), data + kMapCloudHeaderBytes, size - kMapCloudHeaderBytes);
   if (ZSTD_isError(n) || n != payload.size()) return refuse("zstd: the frame does not decompress");
   std::array<VarintReader, 4> streams{};
   if (std::string why = split_streams(payload, &streams); !why.empty()) return refuse(why);
