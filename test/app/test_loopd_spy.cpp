@@ -9,8 +9,8 @@ TEST_CASE("loopd-spy starts under Xvfb and finds every loopd message type") {
     WARN("skipped: xvfb-run or java not installed");
     return;
   }
-  const std::string cmd =
-      "cd " + std::string(LOOPD_SOURCE_DIR) + " && timeout 12 xvfb-run -a scripts/loopd-spy --lcm-url 'udpm://239.255.76.67:7799?ttl=0' 2>&1";
+  const std::string cmd = "cd " + std::string(LOOPD_SOURCE_DIR) + " && LOOPD_TYPES_JAR=" + std::string(LOOPD_BINARY_DIR) +
+                          "/lcmtypes/loopd_types.jar timeout 12 xvfb-run -a scripts/loopd-spy --lcm-url 'udpm://239.255.76.67:7799?ttl=0' 2>&1";
   std::string out;
   FILE* p = popen(cmd.c_str(), "r");
   REQUIRE(p);
