@@ -9,10 +9,10 @@ namespace loopd {
 /// @brief A fixed-size number type of a cloud file field.
 enum class ScalarType { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kInt64, kUint64, kFloat32, kFloat64 };
 
-/// @brief Bytes of one value of `t`.
 /// @brief True for the integer types (every type but kFloat32 and kFloat64).
 inline bool is_integer(ScalarType t) { return t != ScalarType::kFloat32 && t != ScalarType::kFloat64; }
 
+/// @brief Bytes of one value of `t`.
 inline int scalar_size(ScalarType t) {
   switch (t) {
     case ScalarType::kInt8:
