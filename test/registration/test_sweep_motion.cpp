@@ -141,11 +141,17 @@ TEST_CASE("the scans give back a sweep's motion that noisy odometry got wrong", 
   CAPTURE(with_scans, with_odometry, with_truth);
   CHECK(with_scans < with_odometry);
   CHECK(with_scans < with_truth + 0.005);
-  // With two turn rates on an arc that has one: the stamp's rotation stays within 0.1 deg, the deskewed
-  // sweep as close to the still scan.
+  // The odometry turned by the same over the previous sweep (an arc): one rate holds, the shape is not refined;
+  // nor without the previous sweep's odometry (the rate change unknown).
+  const loopd::SweepIncrement same_rate{odometry, kPeriod};
+  CHECK_FALSE(loopd::estimate_sweep_motion(s.previous, s.current, kPeriod, odometry, loopd::SweepMotionConfig{}, same_rate).shape_refined);
+  CHECK_FALSE(loopd::estimate_sweep_motion(s.previous, s.current, kPeriod, odometry, loopd::SweepMotionConfig{}).shape_refined);
+  // Made to refine it anyway (min_rate_change_deg 0), two turn rates on an arc that has one: the stamp's rotation
+  // stays within 0.1 deg, the deskewed sweep as close to the still scan.
   loopd::SweepMotionConfig two_rates;
   two_rates.shape.segments = 2;
-  const loopd::SweepMotionResult shaped = loopd::estimate_sweep_motion(s.previous, s.current, kPeriod, odometry, two_rates);
+  two_rates.shape.min_rate_change_deg = 0.0;
+  const loopd::SweepMotionResult shaped = loopd::estimate_sweep_motion(s.previous, s.current, kPeriod, odometry, two_rates, same_rate);
   REQUIRE(shaped.shape_refined);
   CHECK(rotation_deg(s.T_previous_current.inverse() * shaped.T_previous_current) < 0.1);
   CHECK(mean_distance_to_still(deskewed_on(s.current, shaped.knot_times, shaped.T_previous_knot), s.current_still) < with_truth + 0.005);
@@ -278,6 +284,16 @@ TEST_CASE("a turn's onset inside the sweep: its rotation with two turn rates lie
   CAPTURE(worst_shaped, worst_constant, shaped.shape_correction_deg);
   CHECK(worst_constant > 0.4);
   CHECK(worst_shaped < 0.5 * worst_constant);
+  // yaw_only (the default): each knot is the constant-velocity path turned about the sensor's z axis only.
+  for (std::size_t k = 0; k < shaped.knot_times.size(); ++k) {
+    const double tau = (kPeriod + shaped.knot_times[k]) / kPeriod;
+    const Eigen::Isometry3d T_path = loopd::interpolate_screw(Eigen::Isometry3d::Identity(), constant.T_previous_current, tau);
+    const Eigen::Matrix3d turn = T_path.linear().transpose() * shaped.T_previous_knot[k].linear();
+    CHECK((turn.col(2) - Eigen::Vector3d::UnitZ()).norm() < 1e-9);
+  }
+  // With the previous sweep turning as this one ends (no change of rate), the shape is not refined.
+  const loopd::SweepIncrement no_change{truth, kPeriod};
+  CHECK_FALSE(loopd::estimate_sweep_motion(previous, current, kPeriod, truth, two_rates, no_change).shape_refined);
 
   std::vector<double> times = shaped.knot_times;
   std::vector<Eigen::Isometry3d> path = shaped.T_previous_knot;

@@ -161,10 +161,12 @@ SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointC
   if (prev.points.size() < kMinVoxels || cur.points.size() < kMinVoxels) return give_up("too few points in range");
   // The odometry's change of turn rate between the sweeps, when it is more than its step noise.
   std::optional<Eigen::Isometry3d> change;
+  double rate_change_deg = -1.0;  // unknown without the odometry's previous sweep
   if (odometry_previous_sweep && odometry_previous_sweep->dt > 0.0) {
     Eigen::Isometry3d c = Eigen::Isometry3d::Identity();
     c.linear() = odometry_T_previous_current.linear().transpose() * odometry_previous_sweep->T_start_end.linear();
-    if (rotation_angle(c) * 180.0 / kPi > config.min_velocity_change_deg) change = c;
+    rate_change_deg = rotation_angle(c) * 180.0 / kPi;
+    if (rate_change_deg > config.min_velocity_change_deg) change = c;
   }
   r.velocity_changed = change.has_value();
   // The odometry's own rotation over the previous sweep (its noise once, not the difference's twice).
@@ -197,7 +199,9 @@ SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointC
                    " deg from the odometry's");
   r.T_previous_current = T;
   r.refined = true;
-  if (!r.rotation_only && config.shape.segments > 0) refine_shape(cur, prev, T, dt, change ? previous_velocity(T) : std::nullopt, config, &r);
+  const bool rate_changed = rate_change_deg >= 0.0 && rate_change_deg >= config.shape.min_rate_change_deg;
+  if (!r.rotation_only && config.shape.segments > 0 && rate_changed)
+    refine_shape(cur, prev, T, dt, change ? previous_velocity(T) : std::nullopt, config, &r);
   r.ms = sw.ms();
   return r;
 }

@@ -43,7 +43,8 @@ struct SweepMotionConfig {
   double min_velocity_change_deg = 0.5;
   GicpConfig gicp = default_gicp();
   /// After the constant-velocity estimate, the current sweep's rotation is refined with more than one turn rate
-  /// (refine_sweep_shape against the previous sweep), where the registration is not degenerate and shape.segments > 0.
+  /// (refine_sweep_shape against the previous sweep), where the registration is not degenerate, shape.segments > 0 and
+  /// the odometry's turn rate changed between the sweeps by more than shape.min_rate_change_deg.
   SweepShapeConfig shape;
 
   /// @brief GICP at 1 m voxels: 1.0 / 0.5 m correspondence stages, 1500 source points, one thread (the keyframe

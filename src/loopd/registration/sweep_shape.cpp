@@ -110,6 +110,17 @@ void add_knot_prior(const Eigen::VectorXd& w, double prior, Eigen::MatrixXd* H, 
   }
 }
 
+/// Roll and pitch corrections held at 0: their rows and columns of the normal equations become identity rows.
+void fix_tilt(Eigen::MatrixXd* H, Eigen::VectorXd* g) {
+  for (Eigen::Index k = 0; k + 2 < H->rows(); k += 3)
+    for (Eigen::Index a = k; a < k + 2; ++a) {
+      H->row(a).setZero();
+      H->col(a).setZero();
+      (*H)(a, a) = 1.0;
+      (*g)(a) = 0.0;
+    }
+}
+
 /// The refined path's pose at time t: the constant-velocity one turned by the knots' correction there.
 Eigen::Isometry3d corrected_pose(const std::function<Eigen::Isometry3d(double)>& path, const std::vector<double>& knots, const Eigen::VectorXd& w,
                                  double t) {
@@ -129,6 +140,7 @@ std::optional<std::string> SweepShapeConfig::validate() const {
   if (iterations < 1 || iterations > 50) return "iterations must be in [1, 50]";
   if (min_points_per_segment < 0) return "min_points_per_segment must be >= 0";
   if (!(max_correction_deg > 0.0)) return "max_correction_deg must be > 0";
+  if (!(min_rate_change_deg >= 0.0)) return "min_rate_change_deg must be >= 0";
   return std::nullopt;
 }
 
@@ -166,6 +178,7 @@ SweepShapeResult refine_sweep_shape(const std::vector<Eigen::Vector3f>& points, 
     Eigen::VectorXd g = Eigen::VectorXd::Zero(3 * knots);
     r.correspondences = add_point_terms(on_path, w, ref, config, &H, &g, &per_segment);
     add_knot_prior(w, prior, &H, &g);
+    if (config.yaw_only) fix_tilt(&H, &g);
     H.diagonal().array() += 1e-9 * H.diagonal().maxCoeff() + 1e-12;
     const Eigen::VectorXd dw = H.ldlt().solve(-g);
     if (!dw.allFinite()) {

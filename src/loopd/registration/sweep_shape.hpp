@@ -17,7 +17,17 @@ namespace loopd {
 
 /// @brief Settings of refine_sweep_shape.
 struct SweepShapeConfig {
-  int segments = 0;  ///< knots = segments + 1, evenly over the sweep's times; 0 = off (one rate; 2: a rate per half sweep)
+  int segments = 2;  ///< knots = segments + 1, evenly over the sweep's times; 0 = off (one rate; 2: a rate per half sweep)
+  /// Only the rotation about the sensor's z axis is refined; roll and pitch stay on the constant-velocity path. A ground
+  /// vehicle's turn rate steps within 0.1 s (steering), its roll and pitch rates do not, and a half sweep fixes its
+  /// heading well (walls at every azimuth) but its tilt poorly: refined in all three axes, the tilt knots took the noise
+  /// (the 2000-scan ring drive's loop rotation p95 0.11 -> 0.23 deg; yaw only: 0.11). false: a handheld or legged sensor.
+  bool yaw_only = true;
+  /// estimate_sweep_motion refines the shape only where the odometry's rotations over the previous sweep and this one
+  /// differ by more than this [deg per sweep] (a turn rate that changed between them, so perhaps inside this one):
+  /// one rate is right where the rate holds, and two rates there only add noise. The odometry's step noise on
+  /// straights is ~0.08 deg per step (median, simulator); without the previous sweep's odometry it is not refined.
+  double min_rate_change_deg = 0.25;
   /// Prior on the change of the correction from one knot to the next [deg]: lets a knot follow its own data where
   /// that data fixes it and holds it to its neighbours where it does not (a quarter sweep facing open ground).
   double knot_change_sigma_deg = 0.5;
