@@ -130,34 +130,34 @@ __kernel __attribute__((reqd_work_group_size(M2DP_WG, 1, 1)))
 void m2dp_codes(__global const float* xs, __global const float* ys, __global const float* zs, const int n, const int stride,
                 __constant float* planes, __constant float* bin_params, __global uchar* codes, const int n_pad) {
   const int base = (int)get_global_id(0) * M2DP_VEC;
-  float8 x, y, z;
+  float16 x, y, z;
   if (stride == 1 && base + M2DP_VEC <= n) {
-    x = vload8(0, xs + base);
-    y = vload8(0, ys + base);
-    z = vload8(0, zs + base);
+    x = vload16(0, xs + base);
+    y = vload16(0, ys + base);
+    z = vload16(0, zs + base);
   } else {
-    const int g0 = M2DP_LANE(0), g1 = M2DP_LANE(1), g2 = M2DP_LANE(2), g3 = M2DP_LANE(3);
-    const int g4 = M2DP_LANE(4), g5 = M2DP_LANE(5), g6 = M2DP_LANE(6), g7 = M2DP_LANE(7);
-    x = (float8)(xs[g0], xs[g1], xs[g2], xs[g3], xs[g4], xs[g5], xs[g6], xs[g7]);
-    y = (float8)(ys[g0], ys[g1], ys[g2], ys[g3], ys[g4], ys[g5], ys[g6], ys[g7]);
-    z = (float8)(zs[g0], zs[g1], zs[g2], zs[g3], zs[g4], zs[g5], zs[g6], zs[g7]);
+    int g[16];
+    for (int k = 0; k < 16; ++k) g[k] = M2DP_LANE(k);
+    x = (float16)(xs[g[0]], xs[g[1]], xs[g[2]], xs[g[3]], xs[g[4]], xs[g[5]], xs[g[6]], xs[g[7]], xs[g[8]], xs[g[9]], xs[g[10]], xs[g[11]], xs[g[12]], xs[g[13]], xs[g[14]], xs[g[15]]);
+    y = (float16)(ys[g[0]], ys[g[1]], ys[g[2]], ys[g[3]], ys[g[4]], ys[g[5]], ys[g[6]], ys[g[7]], ys[g[8]], ys[g[9]], ys[g[10]], ys[g[11]], ys[g[12]], ys[g[13]], ys[g[14]], ys[g[15]]);
+    z = (float16)(zs[g[0]], zs[g[1]], zs[g[2]], zs[g[3]], zs[g[4]], zs[g[5]], zs[g[6]], zs[g[7]], zs[g[8]], zs[g[9]], zs[g[10]], zs[g[11]], zs[g[12]], zs[g[13]], zs[g[14]], zs[g[15]]);
   }
   for (int plane = 0; plane < M2DP_NPLANES; ++plane) {
     __constant float* pl = planes + plane * M2DP_PLANE_STRIDE;
-    const float8 u = pl[0] * x + pl[1] * y + pl[2] * z + pl[3];
-    const float8 v = pl[4] * x + pl[5] * y + pl[6] * z + pl[7];
-    const float8 r2 = u * u + v * v;
-    int8 ring = (int8)(0);
+    const float16 u = pl[0] * x + pl[1] * y + pl[2] * z + pl[3];
+    const float16 v = pl[4] * x + pl[5] * y + pl[6] * z + pl[7];
+    const float16 r2 = u * u + v * v;
+    int16 ring = (int16)(0);
 #pragma unroll
     for (int k = 0; k < M2DP_L - 1; ++k) ring -= (r2 >= bin_params[k]);  // true is -1 per lane
-    const float8 au = fabs(u), av = fabs(v);
-    int8 kq = (int8)(0);
+    const float16 au = fabs(u), av = fabs(v);
+    int16 kq = (int16)(0);
 #pragma unroll
     for (int j = 0; j < M2DP_T / 4 - 1; ++j) kq -= (av >= au * bin_params[M2DP_L - 1 + j]);
-    const int8 lower = v < 0.0f;
-    const int8 mirrored = (lower & (u > 0.0f)) | (~lower & (u < 0.0f));
-    const int8 sector = select((int8)(M2DP_HALF_T), (int8)(0), lower) + select(kq, (int8)(M2DP_HALF_T - 1) - kq, mirrored);
-    vstore8(convert_uchar8(ring * M2DP_T + sector), 0, codes + plane * n_pad + base);
+    const int16 lower = v < 0.0f;
+    const int16 mirrored = (lower & (u > 0.0f)) | (~lower & (u < 0.0f));
+    const int16 sector = select((int16)(M2DP_HALF_T), (int16)(0), lower) + select(kq, (int16)(M2DP_HALF_T - 1) - kq, mirrored);
+    vstore16(convert_uchar16(ring * M2DP_T + sector), 0, codes + plane * n_pad + base);
   }
 }
 

@@ -11,10 +11,10 @@
 #define M2DP_CHUNK 8192
 
 /* Work-group size of the code kernel (m2dp_codes), each work-item M2DP_VEC points: 512 points per group. */
-#define M2DP_WG 64
+#define M2DP_WG 32
 
 /* Binned points per work-item of m2dp_codes (float8 lanes). */
-#define M2DP_VEC 8
+#define M2DP_VEC 16
 
 /* Points counted at once inside a counting work-item (m2dp_count): its 16-bit histograms cannot overflow. */
 #define M2DP_SUBBLOCK 4096
