@@ -78,6 +78,10 @@ TEST_CASE("deskew.enabled switches motion compensation of a replayed drive, scan
   CHECK(on.status.keyframes_deskewed == on.status.keyframes);
   CHECK(on.status.deskew_skipped == 0);
   CHECK(on.log.find("loopd: deskew: " + std::to_string(on.status.keyframes_deskewed) + " keyframes deskewed") != std::string::npos);
+  // The preset is the drive's sensor: its layout is read before deskew moves the points (deskewed, the near rings
+  // spread by degrees and the preset check warned on every skewed drive).
+  CHECK(on.log.find("WARNING") == std::string::npos);
+  CHECK(on.log.find("16 rings between -15.0 and +15.0 deg") != std::string::npos);
   CHECK(off.status.keyframes_deskewed == 0);
   CHECK(off.status.deskew_skipped == 0);
   CHECK(off.log.find("loopd: deskew:") == std::string::npos);

@@ -40,7 +40,7 @@ LoopDetector::LoopDetector(const LoopDetectorConfig& config)
 
 LoopDetector::~LoopDetector() = default;
 
-KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
+KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan, const SensorEstimate* measured_layout) const {
   KeyframeFeatures f;
   f.input_points = scan.size();
   std::size_t removed = 0;
@@ -68,7 +68,13 @@ KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan) const {
   // The range image's rings: read from this scan ("auto"), or the preset, checked against what the scan shows.
   f.scene_scale = static_cast<float>(scene_scale(clean));
   SensorEstimate seen;
-  const LidarModel* model = model_for_scan(model_, clean, &seen);
+  const LidarModel* model = nullptr;
+  if (model_ && measured_layout != nullptr) {
+    seen = *measured_layout;
+    model = &*model_;
+  } else {
+    model = model_for_scan(model_, clean, &seen);
+  }
   f.sensor_layout = seen.describe();
   if (model_) f.sensor_mismatch = preset_mismatch(*model_, seen).value_or("");
   f.prepared = prepare_scan(clean, model, config_.prepare);

@@ -138,7 +138,13 @@ class LoopDetector {
   ~LoopDetector();
 
   /// @brief Descriptor + prepared scan of one keyframe (heavy, thread-safe).
-  KeyframeFeatures compute_features(const PointCloud& scan) const;
+  /// @param measured_layout the sensor as the scan showed it before deskew moved its points (estimate_sensor of the
+  ///        scan as measured), used with a sensor preset for the layout note and the preset check: deskewed, a point's
+  ///        elevation is seen from the sensor at the stamp, not from where it was measured, and the near rings spread
+  ///        by degrees. Null: both come from `scan`. The preset, not the layout, is what the scan is prepared with.
+  KeyframeFeatures compute_features(const PointCloud& scan, const SensorEstimate* measured_layout = nullptr) const;
+  /// @brief A sensor preset is fixed (not "auto"): the scan's layout is only checked against it.
+  bool has_sensor_preset() const { return model_.has_value(); }
   /// @brief Adds a keyframe. `features` may be null when the keyframe was shed under load: its pose still
   ///        enters the trajectory but it is neither a query nor a candidate.
   /// @param on_decided called with each decision as soon as it is made, before an accepted loop's correction runs

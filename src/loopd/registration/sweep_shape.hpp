@@ -21,10 +21,11 @@ struct SweepShapeConfig {
   /// Only the rotation about the sensor's z axis is refined; roll and pitch stay on the constant-velocity path. A ground
   /// vehicle's turn rate steps within 0.1 s (steering), its roll and pitch rates do not, and a half sweep fixes its
   /// heading well (walls at every azimuth) but its tilt poorly: refined in all three axes, the tilt knots took the noise
-  /// (the 2000-scan ring drive's loop rotation p95 0.11 -> 0.23 deg; yaw only: 0.11). false: a handheld or legged sensor.
+  /// (the 2000-scan ring drive's loop rotation p95 0.11 -> 0.23 deg; heading only, with the gate below: 0.12). false: a
+  /// handheld or legged sensor.
   bool yaw_only = true;
   /// estimate_sweep_motion refines the shape only where the odometry's rotations over the previous sweep and this one
-  /// differ by more than this [deg per sweep] (a turn rate that changed between them, so perhaps inside this one):
+  /// differ by at least this [deg per sweep] (a turn rate that changed between them, so perhaps inside this one):
   /// one rate is right where the rate holds, and two rates there only add noise. The odometry's step noise on
   /// straights is ~0.08 deg per step (median, simulator); without the previous sweep's odometry it is not refined.
   double min_rate_change_deg = 0.25;

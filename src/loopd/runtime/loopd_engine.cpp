@@ -327,11 +327,15 @@ void LoopdEngine::worker_loop() {
       job.cloud = job.raw->cloud;
       job.raw.reset();
     }
+    // With a preset, the layout it is checked against is read before deskew moves the points (not an extra cost: the
+    // detector then reads none from the deskewed scan).
+    std::optional<SensorEstimate> measured_layout;
+    if (detector_.has_sensor_preset() && config_.deskew.enabled && job.cloud.has_time()) measured_layout = estimate_sensor(job.cloud);
     const double sweep_motion_ms = deskew_scan(job);
     merge_submap_scans(job);
     const double deskew_ms = sw.ms() - sweep_motion_ms;
     sw.reset();
-    auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud));
+    auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud, measured_layout ? &*measured_layout : nullptr));
     note_sensor(*features);
     const double features_ms = sw.ms();
     sw.reset();
