@@ -199,7 +199,7 @@ SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointC
                    " deg from the odometry's");
   r.T_previous_current = T;
   r.refined = true;
-  const bool rate_changed = rate_change_deg >= 0.0 && rate_change_deg >= config.shape.min_rate_change_deg;
+  const bool rate_changed = rate_change_deg >= config.shape.min_rate_change_deg;  // never when unknown (-1 < 0 <= min)
   if (!r.rotation_only && config.shape.segments > 0 && rate_changed)
     refine_shape(cur, prev, T, dt, change ? previous_velocity(T) : std::nullopt, config, &r);
   r.ms = sw.ms();
