@@ -22,6 +22,13 @@ void walk(WireWalker& w, const DecodeLimits&, const pose_t*) {
   w.skip("covariance", 8, 36);
 }
 
+void walk(WireWalker& w, const DecodeLimits&, const imu_t*) {
+  w.skip("utime", 8);
+  w.skip("seq", 8);
+  w.skip("angular_velocity", 8, 3);
+  w.skip("linear_acceleration", 8, 3);
+}
+
 void walk(WireWalker& w, const DecodeLimits& limits, const point_cloud_t*) { walk_point_cloud(w, limits, true); }
 
 /// loop_event_t up to ms_total: the whole of version 1 (before the sessions, `retrieval` and `place_distance`).
@@ -173,6 +180,7 @@ DecodeResult decode_bounded(const void* data, std::size_t size, const DecodeLimi
 
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, point_cloud_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, pose_t*);
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, imu_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, loop_event_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, keyframe_pose_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, trajectory_t*);

@@ -4,6 +4,7 @@
 #include <string>
 
 #include <loopd/channel_stats_t.hpp>
+#include <loopd/imu_t.hpp>
 #include <loopd/keyframe_pose_t.hpp>
 #include <loopd/loop_event_t.hpp>
 #include <loopd/point_cloud_t.hpp>
@@ -36,7 +37,7 @@ struct DecodeResult {
 ///        ask for gigabytes, and a length of -1 throws std::length_error). This first walks the wire format of `Msg`,
 ///        checking the fingerprint, every declared length against the bytes present and against `limits`, and that
 ///        nothing trails the message; only then does it run LCM's decoder (inside a try block). Never throws.
-///        Supported: point_cloud_t, pose_t, loop_event_t, trajectory_t, status_t, keyframe_pose_t, channel_stats_t,
+///        Supported: point_cloud_t, pose_t, imu_t, loop_event_t, trajectory_t, status_t, keyframe_pose_t, channel_stats_t,
 ///        session_alignment_t.
 template <typename Msg>
 DecodeResult decode_bounded(const void* data, std::size_t size, const DecodeLimits& limits, Msg* out);

@@ -128,4 +128,23 @@ bool from_message(const pose_t& msg, StampedPose* pose, std::string* error) {
   return true;
 }
 
+imu_t to_message(const ImuSample& sample, std::int64_t seq) {
+  imu_t m{};
+  m.utime = sample.utime;
+  m.seq = seq;
+  for (int i = 0; i < 3; ++i) m.angular_velocity[i] = sample.angular_velocity[i];
+  return m;
+}
+
+bool from_message(const imu_t& msg, ImuSample* sample, std::string* error) {
+  for (double v : msg.angular_velocity)
+    if (!(std::abs(v) <= kMaxTurnRate)) {  // NaN fails too
+      *error = std::isfinite(v) ? "imu_t turn rate " + std::to_string(v) + " rad/s is beyond 100 rad/s" : "imu_t turn rate is not finite";
+      return false;
+    }
+  sample->utime = msg.utime;
+  sample->angular_velocity = Eigen::Vector3d(msg.angular_velocity[0], msg.angular_velocity[1], msg.angular_velocity[2]);
+  return true;
+}
+
 }  // namespace loopd

@@ -4,8 +4,10 @@
 #include <string>
 
 #include <loopd/point_cloud_t.hpp>
+#include <loopd/imu_t.hpp>
 #include <loopd/pose_t.hpp>
 
+#include "loopd/base/imu.hpp"
 #include "loopd/base/point_cloud.hpp"
 #include "loopd/base/pose.hpp"
 
@@ -16,6 +18,7 @@ namespace channels {
 inline constexpr const char* kScan = "LIDAR_SCAN";
 inline constexpr const char* kPose = "ODOMETRY_POSE";
 inline constexpr const char* kGroundTruth = "GROUND_TRUTH_POSE";
+inline constexpr const char* kImu = "IMU";
 inline constexpr const char* kLoopEvent = "LOOP_EVENT";
 inline constexpr const char* kTrajectory = "CORRECTED_TRAJECTORY";
 inline constexpr const char* kStatus = "LOOPD_STATUS";
@@ -50,5 +53,11 @@ bool from_message(const point_cloud_t& msg, PointCloud* cloud, std::string* erro
 pose_t to_message(const StampedPose& pose, std::int64_t seq);
 /// @brief Rejects non-finite numbers, positions beyond kMaxPosition and a zero quaternion.
 bool from_message(const pose_t& msg, StampedPose* pose, std::string* error);
+
+/// Largest turn rate loopd accepts in an imu_t [rad/s] (a gyro's range is a few thousand deg/s).
+inline constexpr double kMaxTurnRate = 100.0;
+imu_t to_message(const ImuSample& sample, std::int64_t seq);
+/// @brief Rejects a non-finite turn rate or one beyond kMaxTurnRate (the accelerometer is not read).
+bool from_message(const imu_t& msg, ImuSample* sample, std::string* error);
 
 }  // namespace loopd

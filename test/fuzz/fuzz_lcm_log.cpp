@@ -18,6 +18,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::size_t n = event.data.size();
     fuzz::decode_any_point_cloud_round_trip(p, n);
     fuzz::decode_round_trip<pose_t>(p, n);
+    fuzz::decode_round_trip<imu_t>(p, n);
     fuzz::decode_round_trip<loop_event_t>(p, n);
     fuzz::decode_round_trip<trajectory_t>(p, n);
     fuzz::decode_round_trip<status_t>(p, n);

@@ -243,6 +243,10 @@ void messages() {
   LogWriter w;
   fs::create_directories(root + "/lcm_log");
   w.open(root + "/lcm_log/drive_log", &err);  // no .lcmlog: .gitignore drops those
+  ImuSample g;
+  g.utime = 999;
+  g.angular_velocity = Eigen::Vector3d(0.01, -0.02, 0.5);
+  w.write_message("IMU", 999, to_message(g, 0));
   w.write_message("ODOMETRY_POSE", 1000, to_message(p, 0));
   w.write_message("LIDAR_SCAN", 1001, to_message(small_cloud(3), 1000, 0, "velodyne"));
   w.write_message("LOOPD_STATUS", 1002, st);

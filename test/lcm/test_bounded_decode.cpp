@@ -286,6 +286,38 @@ TEST_CASE("every truncation and 2000 random byte flips of every message type are
   pose_t pose{};
   pose.orientation[0] = 1;
   check_truncations_and_flips(pose);
+  imu_t imu{};
+  imu.angular_velocity[2] = 0.5;
+  check_truncations_and_flips(imu);
+}
+
+TEST_CASE("imu_t: a gyro sample decodes exactly, and a non-finite or impossible turn rate is refused with the reason") {
+  ImuSample sample;
+  sample.utime = 1700000000005000;
+  sample.angular_velocity = Eigen::Vector3d(0.01, -0.02, 1.25);
+  const imu_t msg = to_message(sample, 7);
+  const auto bytes = encode(msg);
+  CHECK(bytes.size() == 8 + 8 + 8 + 6 * 8);  // fingerprint, utime, seq, 6 doubles
+  imu_t out;
+  REQUIRE(decode_bounded(bytes.data(), bytes.size(), DecodeLimits{}, &out).ok);
+  ImuSample back;
+  std::string error;
+  REQUIRE(from_message(out, &back, &error));
+  CHECK(back.utime == sample.utime);
+  CHECK(back.angular_velocity == sample.angular_velocity);
+  CHECK(out.seq == 7);
+  // One byte short or one too many: refused before LCM's decoder.
+  CHECK_FALSE(decode_bounded(bytes.data(), bytes.size() - 1, DecodeLimits{}, &out).ok);
+  auto longer = bytes;
+  longer.push_back(0);
+  CHECK_FALSE(decode_bounded(longer.data(), longer.size(), DecodeLimits{}, &out).ok);
+  imu_t bad = msg;
+  bad.angular_velocity[1] = std::nan("");
+  CHECK_FALSE(from_message(bad, &back, &error));
+  CHECK(error == "imu_t turn rate is not finite");
+  bad.angular_velocity[1] = 250.0;
+  CHECK_FALSE(from_message(bad, &back, &error));
+  CHECK(error.find("250") != std::string::npos);
 }
 
 TEST_CASE("status_t and trajectory_t lengths are checked against the bytes present") {

@@ -5,9 +5,11 @@
 #include <catch2/catch.hpp>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <vector>
 
 #include "loopd/base/deskew.hpp"
+#include "loopd/base/imu.hpp"
 #include "loopd/base/kdtree.hpp"
 #include "loopd/base/pose.hpp"
 #include "loopd/registration/sweep_motion.hpp"
@@ -304,4 +306,137 @@ TEST_CASE("a turn's onset inside the sweep: its rotation with two turn rates lie
   CHECK(d_shape < 0.8 * d_constant);
   WARN("turn onset inside the sweep: knot rotation error " << worst_shaped << " deg (one rate: " << worst_constant << "); deskewed " << d_shape
                                                            << " m from the still scan (one rate: " << d_constant << ")");
+}
+
+namespace {
+
+/// A gyro riding with the sensor on `path` (t [s] after the previous stamp): at 200 Hz from t0 to t1, each sample the
+/// mean turn rate over the period before it, in the sensor frame; utimes on the scans' clock.
+std::vector<loopd::ImuSample> gyro_on(const std::function<Eigen::Isometry3d(double)>& path, double t0, double t1) {
+  std::vector<loopd::ImuSample> samples;
+  const double h = 0.005;
+  for (int k = 0; t0 + k * h <= t1 + 1e-9; ++k) {
+    const double t = t0 + k * h;
+    const Eigen::AngleAxisd turn(path(t - h).linear().transpose() * path(t).linear());
+    samples.push_back({kUtime + std::llround(t * 1e6), turn.axis() * turn.angle() / h});
+  }
+  return samples;
+}
+
+}  // namespace
+
+TEST_CASE("a gyro integrates to the rotation it turned, in the lidar's frame, and its path curves at the speed given", "[registration][imu]") {
+  // 30 deg/s about the IMU's x axis, mounted with that axis along the lidar's z (pitched by -90 deg): 3 deg about z
+  // in 0.1 s; at 10 m/s along x the dead-reckoned path is the arc of radius v / w.
+  const double w = 30.0 * kPi / 180.0, v = 10.0;
+  std::vector<loopd::ImuSample> samples;
+  for (int k = 0; k <= 20; ++k) samples.push_back({kUtime + k * 5000, Eigen::Vector3d(w, 0.0, 0.0)});
+  const Eigen::Matrix3d R_sensor_imu = loopd::rotation_from_rpy_deg(0.0, -90.0, 0.0);
+  CHECK((R_sensor_imu * Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitZ()).norm() < 1e-12);
+  const std::vector<loopd::StampedPose> track = loopd::integrate_gyro(samples, R_sensor_imu, 0.05, Eigen::Vector3d(v, 0.0, 0.0));
+  REQUIRE(track.size() == samples.size());
+  const Eigen::Isometry3d end = track.back().T_world_sensor;
+  const Eigen::AngleAxisd turned(end.linear());
+  CHECK(turned.angle() * 180.0 / kPi == Approx(3.0).margin(1e-9));
+  CHECK(turned.axis().z() == Approx(1.0).margin(1e-9));
+  const double a = w * 0.1;
+  CHECK((end.translation() - Eigen::Vector3d(v / w * std::sin(a), v / w * (1.0 - std::cos(a)), 0.0)).norm() < 1e-6);
+  const auto rotation = loopd::gyro_rotation(track, kUtime + 50000, kUtime + 100000, 0.05);
+  REQUIRE(rotation);
+  CHECK(Eigen::AngleAxisd(*rotation).angle() * 180.0 / kPi == Approx(1.5).margin(1e-9));
+  CHECK_FALSE(loopd::gyro_rotation(track, kUtime - 5000, kUtime + 100000, 0.05));  // before the first sample
+  // A gap longer than max_gap ends the track there.
+  samples[12].utime += 60000;
+  for (std::size_t k = 13; k < samples.size(); ++k) samples[k].utime += 60000;
+  CHECK(loopd::integrate_gyro(samples, Eigen::Matrix3d::Identity(), 0.05).size() == 12);
+}
+
+TEST_CASE("a sweep's bend: none at a constant velocity, a turn's onset from the poses inside the sweep", "[registration][imu]") {
+  const auto track = [](const std::function<Eigen::Isometry3d(double)>& path) {
+    std::vector<loopd::StampedPose> poses;
+    for (int k = 0; k <= 40; ++k) poses.push_back({kUtime + k * 5000, path(k * 0.005), 0.0});  // from the previous stamp to the current
+    return poses;
+  };
+  const std::int64_t stamp = kUtime + 100000;
+  const loopd::SweepBend arc = loopd::SweepBend::from_poses(track(motion), stamp + 100000, kPeriod, 0.25);
+  REQUIRE_FALSE(arc.empty());
+  CHECK(arc.max_rotation_deg() < 1e-6);  // a constant velocity: the screw motion itself
+  const auto onset = [](double t) { return onset_motion(t, 0.05); };
+  const loopd::SweepBend bend = loopd::SweepBend::from_poses(track(onset), stamp, kPeriod, 0.25);
+  REQUIRE_FALSE(bend.empty());
+  CHECK(bend.times().front() == Approx(-kPeriod));
+  CHECK(bend.times().back() == 0.0);
+  // B(t) = Screw(t / d)^-1 T(stamp)^-1 T(stamp + t): off the chord by up to an eighth of the sweep's 3 deg of turn.
+  const Eigen::Isometry3d I = Eigen::Isometry3d::Identity(), delta = onset(0.0).inverse() * onset(kPeriod);
+  for (const double t : {-0.075, -0.05, -0.025}) {
+    const Eigen::Isometry3d expected = loopd::interpolate_screw(I, delta, t / kPeriod).inverse() * onset(kPeriod).inverse() * onset(kPeriod + t);
+    CHECK(rotation_deg(expected.inverse() * bend.at(t)) < 1e-6);
+    CHECK((expected.translation() - bend.at(t).translation()).norm() < 1e-6);
+  }
+  CHECK(bend.max_rotation_deg() > 0.3);
+  CHECK(rotation_deg(bend.at(0.0)) < 1e-12);
+  // Poses only at the stamps: no bend (10 Hz odometry).
+  const std::vector<loopd::StampedPose> ends{{kUtime, onset(0.0), 0.0}, {stamp, onset(kPeriod), 0.0}};
+  CHECK(loopd::SweepBend::from_poses(ends, stamp, kPeriod, 0.25).empty());
+}
+
+TEST_CASE("with a gyro a turn's onset inside the sweep is deskewed as the sensor turned, the increment from the scans", "[registration][imu]") {
+  loopd::Town town = loopd::make_town(1);
+  const Eigen::Isometry3d T0 = loopd::street_pose(town, 0, 0, 0, 25.0);
+  const auto path = [](double t) { return onset_motion(t, 0.05); };  // the turn rate steps halfway through the current sweep
+  const loopd::LidarModel model = loopd::lidar_model_hdl64();
+  loopd::SensorEffects fx = loopd::SensorEffects::none();
+  fx.motion_skew = true;
+  fx.point_times = true;
+  const loopd::PointCloud previous = loopd::simulate_sweep(
+      town, model, [&](double t) { return T0 * path(t); }, kPeriod, fx, 1, 2);
+  const loopd::PointCloud current = loopd::simulate_sweep(
+      town, model, [&](double t) { return T0 * path(kPeriod + t); }, kPeriod, fx, 2, 2);
+  const loopd::PointCloud still = loopd::simulate_scan(town, model, T0 * path(kPeriod), 2, 2);
+  const Eigen::Isometry3d truth = path(kPeriod), odometry = noisy(truth);
+  const loopd::SweepIncrement previous_sweep{path(-kPeriod).inverse() * path(0.0), kPeriod};
+
+  // The gyro over both sweeps, dead-reckoned at the odometry's speed, as the engine hands it over.
+  const std::vector<loopd::StampedPose> gyro =
+      loopd::integrate_gyro(gyro_on(path, -kPeriod, kPeriod), Eigen::Matrix3d::Identity(), 0.05, odometry.translation() / kPeriod);
+  loopd::SweepBends bends;
+  const std::int64_t previous_stamp = kUtime, current_stamp = kUtime + 100000;
+  bends.current = loopd::SweepBend::from_poses(gyro, current_stamp, kPeriod, 0.25);
+  bends.previous = loopd::SweepBend::from_poses(gyro, previous_stamp, kPeriod, 0.25);
+  bends.current_rotation = loopd::gyro_rotation(gyro, previous_stamp, current_stamp, 0.05);
+  bends.previous_rotation = loopd::gyro_rotation(gyro, previous_stamp - 100000, previous_stamp, 0.05);
+  REQUIRE(bends.current_rotation);
+  REQUIRE(bends.previous_rotation);
+
+  const loopd::SweepMotionResult shaped =
+      loopd::estimate_sweep_motion(previous, current, kPeriod, odometry, loopd::SweepMotionConfig{}, previous_sweep);
+  const loopd::SweepMotionResult bent =
+      loopd::estimate_sweep_motion(previous, current, kPeriod, odometry, loopd::SweepMotionConfig{}, previous_sweep, bends);
+  INFO(shaped.reason << " / " << bent.reason);
+  REQUIRE(bent.refined);
+  CHECK(bent.bent);
+  CHECK_FALSE(bent.shape_refined);  // the gyro gives the shape
+  const double rotation_error = rotation_deg(truth.inverse() * bent.T_previous_current);
+  CAPTURE(rotation_error, rotation_deg(truth.inverse() * shaped.T_previous_current));
+  CHECK(rotation_error < 0.05);
+
+  // Deskewed on the scans' increment bent as the gyro turned (the path the engine hands to deskew()) the sweep lies
+  // on the scan seen standing still at the stamp closer than with two turn rates refined against the previous sweep.
+  std::vector<double> times;
+  std::vector<Eigen::Isometry3d> poses;
+  for (const double t : bends.current.times()) {
+    times.push_back(t);
+    poses.push_back(loopd::interpolate_screw(Eigen::Isometry3d::Identity(), bent.T_previous_current, 1.0 + t / kPeriod) * bends.current.at(t));
+  }
+  const double d_gyro = mean_distance_to_still(deskewed_on(current, times, poses), still);
+  const double d_shape = shaped.shape_refined ? mean_distance_to_still(deskewed_on(current, shaped.knot_times, shaped.T_previous_knot), still)
+                                              : mean_distance_to_still(deskewed_with(current, shaped.T_previous_current), still);
+  const double d_truth = mean_distance_to_still(
+      deskewed_on(current, {-0.1, -0.075, -0.05, -0.025, 0.0}, {path(0.0), path(0.025), path(0.05), path(0.075), path(0.1)}), still);
+  CAPTURE(d_gyro, d_shape, d_truth);
+  CHECK(d_gyro < d_shape);
+  CHECK(d_gyro < d_truth + 0.003);
+  WARN("turn onset with a gyro: increment rotation error " << rotation_error << " deg; deskewed " << d_gyro
+                                                           << " m from the still scan (two turn rates: " << d_shape
+                                                           << ", the true path at 40 Hz: " << d_truth << ")");
 }

@@ -77,8 +77,9 @@ TimedVoxels timed_voxels(const PointCloud& cloud, const SweepMotionConfig& confi
 /// stamp's frame (translation on a line, rotation at a constant rate), tau [s] after the previous stamp. A point of the
 /// previous sweep at time t was seen from P(t); one of the current sweep from T_previous_current^-1 P(dt + t).
 /// The previous sweep's own motion, when it differed, is `velocity` (its increment over velocity_dt) instead.
+/// A sweep with a bend (a gyro's turn through it) is moved along the constant-velocity path times its bend.
 void deskew(const TimedVoxels& v, const Eigen::Isometry3d& T_previous_current, double dt, bool current, std::vector<Eigen::Vector3f>* points,
-            std::vector<Eigen::Vector3f>* normals, const std::optional<SweepIncrement>& velocity = std::nullopt) {
+            std::vector<Eigen::Vector3f>* normals, const std::optional<SweepIncrement>& velocity = std::nullopt, const SweepBend& bend = {}) {
   const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
   const Eigen::Isometry3d T_current_previous = T_previous_current.inverse();
   const Eigen::Isometry3d& T_rate = velocity && !current ? velocity->T_start_end : T_previous_current;
@@ -87,7 +88,8 @@ void deskew(const TimedVoxels& v, const Eigen::Isometry3d& T_previous_current, d
   normals->resize(v.points.size());
   for (std::size_t i = 0; i < v.points.size(); ++i) {
     const double tau = (current ? dt : 0.0) + v.time[i];
-    const Eigen::Isometry3d P = interpolate_screw(I, T_rate, tau / rate_dt);
+    const Eigen::Isometry3d P =
+        bend.empty() ? interpolate_screw(I, T_rate, tau / rate_dt) : interpolate_screw(I, T_rate, tau / rate_dt) * bend.at(v.time[i]);
     const Eigen::Isometry3f T = (current ? T_current_previous * P : P).cast<float>();
     (*points)[i] = T * v.points[i];
     (*normals)[i] = T.linear() * v.normals[i];
@@ -141,7 +143,7 @@ std::optional<std::string> SweepMotionConfig::validate() const {
 
 SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointCloud& current, double dt,
                                         const Eigen::Isometry3d& odometry_T_previous_current, const SweepMotionConfig& config,
-                                        const std::optional<SweepIncrement>& odometry_previous_sweep) {
+                                        const std::optional<SweepIncrement>& odometry_previous_sweep, const SweepBends& bends) {
   Stopwatch sw;
   SweepMotionResult r;
   r.T_previous_current = odometry_T_previous_current;
@@ -172,14 +174,16 @@ SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointC
   // The odometry's own rotation over the previous sweep (its noise once, not the difference's twice).
   const auto previous_velocity = [&](const Eigen::Isometry3d& T) -> std::optional<SweepIncrement> {
     Eigen::Isometry3d V = T;
-    V.linear() = odometry_previous_sweep->T_start_end.linear();
+    V.linear() = bends.previous_rotation ? *bends.previous_rotation : odometry_previous_sweep->T_start_end.linear();
     return SweepIncrement{V, odometry_previous_sweep->dt};
   };
   Eigen::Isometry3d T = odometry_T_previous_current;
+  if (bends.current_rotation) T.linear() = *bends.current_rotation;
   std::vector<Eigen::Vector3f> source, source_normals, target, target_normals;
   for (int round = 0; round < config.rounds; ++round) {
-    deskew(cur, T, dt, true, &source, &source_normals);
-    deskew(prev, T, dt, false, &target, &target_normals, change ? previous_velocity(T) : std::nullopt);
+    deskew(cur, T, dt, true, &source, &source_normals, std::nullopt, bends.current);
+    deskew(prev, T, dt, false, &target, &target_normals,
+           (change || (bends.previous_rotation && odometry_previous_sweep)) ? previous_velocity(T) : std::nullopt, bends.previous);
     const GicpResult g = align_gicp(source, source_normals, target, target_normals, T, config.gicp);
     r.iterations += g.iterations;
     r.fitness = g.fitness;
@@ -200,7 +204,8 @@ SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointC
   r.T_previous_current = T;
   r.refined = true;
   const bool rate_changed = rate_change_deg >= config.shape.min_rate_change_deg;  // never when unknown (-1 < 0 <= min)
-  if (!r.rotation_only && config.shape.segments > 0 && rate_changed)
+  r.bent = !bends.current.empty();
+  if (!r.bent && !r.rotation_only && config.shape.segments > 0 && rate_changed)
     refine_shape(cur, prev, T, dt, change ? previous_velocity(T) : std::nullopt, config, &r);
   r.ms = sw.ms();
   return r;

@@ -11,6 +11,7 @@
 
 #include "loopd/base/point_cloud.hpp"
 #include "loopd/registration/gicp.hpp"
+#include "loopd/registration/sweep_bend.hpp"
 #include "loopd/registration/sweep_shape.hpp"
 
 namespace loopd {
@@ -59,6 +60,17 @@ struct SweepIncrement {
   double dt = 0.0;  ///< [s]
 };
 
+/// @brief What a gyro says of the two sweeps: their bends off their constant-velocity paths (empty: none) and rotations.
+struct SweepBends {
+  SweepBend previous, current;
+  /// The previous sweep's rotation measured by a gyro: the previous sweep is deskewed at it (and at the translation's
+  /// constant velocity) whatever the odometry's rotations say.
+  std::optional<Eigen::Matrix3d> previous_rotation;
+  /// The current sweep's rotation measured by the gyro: the first estimate's rotation (the odometry's translation), so
+  /// that both sweeps are first deskewed alike; the registration then measures the increment.
+  std::optional<Eigen::Matrix3d> current_rotation;
+};
+
 /// @brief What estimate_sweep_motion found.
 struct SweepMotionResult {
   bool refined = false;  ///< T_previous_current is the scans' (otherwise the odometry's, and `reason` says why)
@@ -68,6 +80,7 @@ struct SweepMotionResult {
   double fitness = 0.0;
   bool rotation_only = false;     ///< refined, but the translation is the odometry's (degenerate registration)
   bool velocity_changed = false;  ///< the previous sweep was deskewed at its own velocity (the odometry's changed)
+  bool bent = false;              ///< the current sweep's path is the scans' increment bent as the gyro turned (bends.current)
   double degeneracy = -1.0;       ///< gicp_degeneracy of the last registration (large: a direction the scans do not fix)
   int iterations = 0;             ///< GICP iterations over all rounds
   /// The path through the current sweep with more than one turn rate (refine_sweep_shape), when shape_refined:
@@ -93,8 +106,11 @@ PointCloud sweep_motion_input(const PointCloud& cloud, const SweepMotionConfig& 
 /// @param odometry_T_previous_current the odometry's increment: the first estimate and the check on the result
 /// @param odometry_previous_sweep the odometry's increment over the previous sweep, when known: where it differs from
 ///        odometry_T_previous_current in rotation (min_velocity_change_deg), the previous sweep turned at its rate
+/// @param bends where a gyro turned through a sweep, its path there is the constant-velocity one bent as the gyro's
+///        (SweepBend): the increment is the scans', the shape within the sweep the gyro's, and the current sweep's shape
+///        is not refined (refine_sweep_shape) when it has a bend
 SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointCloud& current, double dt,
                                         const Eigen::Isometry3d& odometry_T_previous_current, const SweepMotionConfig& config,
-                                        const std::optional<SweepIncrement>& odometry_previous_sweep = std::nullopt);
+                                        const std::optional<SweepIncrement>& odometry_previous_sweep = std::nullopt, const SweepBends& bends = {});
 
 }  // namespace loopd
