@@ -95,17 +95,18 @@ class OutputSink : public EngineSink {
 
 /// Decoded input waiting for the ingest thread, with the time it arrived (wall clock live, logger time in replay).
 struct Input {
-  std::variant<DecodedScan, pose_t> msg;
+  std::variant<DecodedScan, pose_t, imu_t> msg;
   double arrival_s = 0.0;
 };
 
-/// Subscribes to the scan and pose channels; decodes with decode_bounded (every byte is hostile: LCM is
+/// Subscribes to the scan, pose and IMU channels; decodes with decode_bounded (every byte is hostile: LCM is
 /// unauthenticated multicast) and counts; hands messages to `deliver`. Nothing thrown escapes into LCM.
 class InputHandler {
  public:
   InputHandler(const NodeConfig& node, const DecodeLimits& limits) : node_(node), limits_(limits) {
     scan_.channel = node.scan_channel;
     pose_.channel = node.pose_channel;
+    imu_.channel = node.imu_channel;
   }
   std::function<bool(Input&&)> deliver;  // returns false when the input had to be dropped
 
@@ -121,15 +122,19 @@ class InputHandler {
     }
   }
 
-  ChannelCounters scan_, pose_;
-  std::mutex counters_mutex_;  ///< guards scan_ and pose_ (LCM thread, ingest thread, status)
+  ChannelCounters scan_, pose_, imu_;
+  std::mutex counters_mutex_;  ///< guards scan_, pose_ and imu_ (LCM thread, ingest thread, status)
+  /// The counters of a subscribed channel (counters_mutex_ held).
+  ChannelCounters& counters_of(const std::string& channel) {
+    return channel == node_.scan_channel ? scan_ : channel == node_.imu_channel ? imu_ : pose_;
+  }
 
  private:
   void handle(const void* data, std::size_t size, const std::string& channel, double arrival_s) {
     const bool is_scan = channel == node_.scan_channel;
     {
       std::lock_guard<std::mutex> lock(counters_mutex_);
-      ++(is_scan ? scan_ : pose_).received;
+      ++counters_of(channel).received;
     }
     Input in;
     in.arrival_s = arrival_s;
@@ -138,6 +143,10 @@ class InputHandler {
       DecodedScan m;
       r = decode_scan(data, size, limits_, &m);  // older publishers' layout too; contents checked
       if (r.ok) in.msg = std::move(m);
+    } else if (channel == node_.imu_channel) {
+      imu_t m;
+      r = decode_bounded(data, size, limits_, &m);
+      if (r.ok) in.msg = m;
     } else {
       pose_t m;
       r = decode_bounded(data, size, limits_, &m);
@@ -151,7 +160,7 @@ class InputHandler {
       std::int64_t dropped = 0;
       {
         std::lock_guard<std::mutex> lock(counters_mutex_);
-        dropped = ++(is_scan ? scan_ : pose_).dropped;
+        dropped = ++counters_of(channel).dropped;
       }
       log_anomaly("input queue full, dropped a message on " + channel, dropped, node_.log_every_n);
     }
@@ -160,7 +169,7 @@ class InputHandler {
     std::int64_t malformed = 0;
     {
       std::lock_guard<std::mutex> lock(counters_mutex_);
-      malformed = ++(channel == node_.scan_channel ? scan_ : pose_).malformed;
+      malformed = ++counters_of(channel).malformed;
     }
     log_anomaly(what + " on " + channel, malformed, node_.log_every_n);
   }
@@ -169,37 +178,50 @@ class InputHandler {
   DecodeLimits limits_;
 };
 
+/// One pushed message's outcome, counted on its channel: accepted, or rejected by the engine (logged with `why`).
+void count_pushed(InputHandler& h, ChannelCounters& counters, bool accepted, const std::string& why, std::int64_t rejected, int every) {
+  if (!accepted) {
+    log_anomaly(why, rejected, every);
+    return;
+  }
+  std::lock_guard<std::mutex> lock(h.counters_mutex_);
+  ++counters.accepted;
+}
+
+/// A message that decoded but does not convert (non-finite numbers, out of range): counted as malformed and logged.
+void count_unconvertible(InputHandler& h, ChannelCounters& counters, const std::string& why, int every) {
+  std::int64_t n = 0;
+  {
+    std::lock_guard<std::mutex> lock(h.counters_mutex_);
+    n = ++counters.malformed;
+  }
+  log_anomaly(why, n, every);
+}
+
 /// Converts one decoded input and feeds the engine; counts conversion failures as malformed.
 void ingest(LoopdEngine& engine, InputHandler& h, Input& in, const NodeConfig& node, std::int64_t* last_data_utime) {
   std::string error;
+  const int every = node.log_every_n;
   if (auto* scan = std::get_if<DecodedScan>(&in.msg)) {
     *last_data_utime = std::max(*last_data_utime, scan->utime);
-    if (engine.push_scan(scan->utime, std::move(scan->cloud), in.arrival_s)) {
-      std::lock_guard<std::mutex> lock(h.counters_mutex_);
-      ++h.scan_.accepted;
-    } else {
-      log_anomaly("rejected a scan at utime " + std::to_string(scan->utime) + ": empty, all non-finite, too large, or duplicate/out-of-order utime",
-                  engine.stats().invalid_scans, node.log_every_n);
-    }
+    const bool ok = engine.push_scan(scan->utime, std::move(scan->cloud), in.arrival_s);
+    count_pushed(h, h.scan_, ok,
+                 "rejected a scan at utime " + std::to_string(scan->utime) + ": empty, all non-finite, too large, or duplicate/out-of-order utime",
+                 ok ? 0 : engine.stats().invalid_scans, every);
   } else if (auto* pose = std::get_if<pose_t>(&in.msg)) {
     StampedPose p;
-    if (!from_message(*pose, &p, &error)) {
-      std::int64_t n = 0;
-      {
-        std::lock_guard<std::mutex> lock(h.counters_mutex_);
-        n = ++h.pose_.malformed;
-      }
-      log_anomaly("rejected a pose on " + node.pose_channel + ": " + error, n, node.log_every_n);
-      return;
-    }
+    if (!from_message(*pose, &p, &error)) return count_unconvertible(h, h.pose_, "rejected a pose on " + node.pose_channel + ": " + error, every);
     *last_data_utime = std::max(*last_data_utime, pose->utime);
-    if (engine.push_pose(p, in.arrival_s)) {
-      std::lock_guard<std::mutex> lock(h.counters_mutex_);
-      ++h.pose_.accepted;
-    } else {
-      log_anomaly("rejected a pose with a duplicate or out-of-order utime " + std::to_string(pose->utime), engine.stats().invalid_poses,
-                  node.log_every_n);
-    }
+    const bool ok = engine.push_pose(p, in.arrival_s);
+    count_pushed(h, h.pose_, ok, "rejected a pose with a duplicate or out-of-order utime " + std::to_string(pose->utime),
+                 ok ? 0 : engine.stats().invalid_poses, every);
+  } else if (auto* imu = std::get_if<imu_t>(&in.msg)) {
+    ImuSample sample;
+    if (!from_message(*imu, &sample, &error))
+      return count_unconvertible(h, h.imu_, "rejected a gyro sample on " + node.imu_channel + ": " + error, every);
+    const bool ok = engine.push_imu(sample);
+    count_pushed(h, h.imu_, ok, "rejected a gyro sample with a duplicate or out-of-order utime " + std::to_string(imu->utime),
+                 ok ? 0 : engine.stats().invalid_imu, every);
   }
 }
 
@@ -239,7 +261,8 @@ std::vector<ChannelCounters> counters(InputHandler& h, const EngineStats& s) {
   std::lock_guard<std::mutex> lock(h.counters_mutex_);
   ChannelCounters scan = h.scan_;
   scan.dropped += s.dropped_no_pose + s.shed;
-  return {scan, h.pose_};
+  if (h.imu_.received == 0) return {scan, h.pose_};
+  return {scan, h.pose_, h.imu_};
 }
 
 void fill_summary(RunSummary* summary, LoopdEngine& engine, InputHandler& h) {
@@ -248,8 +271,8 @@ void fill_summary(RunSummary* summary, LoopdEngine& engine, InputHandler& h) {
   std::lock_guard<std::mutex> lock(h.counters_mutex_);
   summary->scans_received = h.scan_.received;
   summary->poses_received = h.pose_.received;
-  summary->malformed = h.scan_.malformed + h.pose_.malformed;
-  summary->dropped_input = h.scan_.dropped + h.pose_.dropped;
+  summary->malformed = h.scan_.malformed + h.pose_.malformed + h.imu_.malformed;
+  summary->dropped_input = h.scan_.dropped + h.pose_.dropped + h.imu_.dropped;
 }
 
 /// The service manager's view of a live run (sd_notify): READY=1 once listening, a STATUS= line every status period,
@@ -372,6 +395,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   };
   lcm.subscribe(node.scan_channel, &InputHandler::on_raw, &handler);
   lcm.subscribe(node.pose_channel, &InputHandler::on_raw, &handler);
+  if (engine_config.imu.enabled) lcm.subscribe(node.imu_channel, &InputHandler::on_raw, &handler);
 
   std::atomic<std::int64_t> ingest_steps{0};  // the ingest thread's loops, for the watchdog
   std::thread ingest_thread([&] {
@@ -477,7 +501,8 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   };
   LogEvent event;
   while (!stop.load() && reader.next(&event)) {
-    if (event.channel != node.scan_channel && event.channel != node.pose_channel) continue;
+    if (event.channel != node.scan_channel && event.channel != node.pose_channel && (!engine_config.imu.enabled || event.channel != node.imu_channel))
+      continue;
     // The logger's receive time is the arrival clock that data time is checked against (clock jumps).
     handler.on_bytes(event.data.data(), event.data.size(), event.channel, static_cast<double>(event.timestamp) * 1e-6);
   }

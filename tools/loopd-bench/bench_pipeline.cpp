@@ -28,10 +28,11 @@ namespace {
 double now_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 struct Input {
-  bool is_scan = false;
+  bool is_scan = false, is_imu = false;
   std::int64_t utime = 0;
   PointCloud cloud;
   StampedPose pose;
+  ImuSample imu;
 };
 
 /// Collects decisions and the latency from a scan's arrival to the decision about it.
@@ -94,6 +95,8 @@ RunResult run_once(const std::vector<Input>& inputs, const EngineConfig& base, d
       if (in.is_scan) {
         sink.arrived(in.utime);
         engine.push_scan(in.utime, in.cloud, now_s());
+      } else if (in.is_imu) {
+        engine.push_imu(in.imu);
       } else {
         engine.push_pose(in.pose, now_s());
       }
@@ -143,6 +146,11 @@ bool read_inputs(const std::string& drive, int max_scans, std::vector<Input>* in
     } else if (ev.channel == channels::kPose) {
       pose_t m;
       if (!LogReader::decode(ev, &m) || !from_message(m, &in.pose, &error)) continue;
+      in.utime = m.utime;
+    } else if (ev.channel == channels::kImu) {  // a gyro, read as loopd reads it (imu.enabled)
+      imu_t m;
+      if (!LogReader::decode(ev, &m) || !from_message(m, &in.imu, &error)) continue;
+      in.is_imu = true;
       in.utime = m.utime;
     } else {
       continue;

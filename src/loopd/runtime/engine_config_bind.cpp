@@ -23,6 +23,9 @@ void bind(Binder& b, EngineConfig& e) {
   b.field("deskew.sweep_motion.shape.segments", e.sweep_motion.shape.segments);
   b.field("deskew.sweep_motion.shape.yaw_only", e.sweep_motion.shape.yaw_only);
   b.field("deskew.sweep_motion.shape.min_rate_change_deg", e.sweep_motion.shape.min_rate_change_deg);
+  b.field("imu.enabled", e.imu.enabled);
+  b.field("imu.rpy_deg", e.imu.rpy_deg);
+  b.field("imu.max_gap", e.imu.max_gap);
   b.field("submap.enabled", e.submap.enabled);
   b.field("submap.max_coverage_deg", e.submap.max_coverage_deg);
   int submap_min_points = static_cast<int>(e.submap.min_points);

@@ -18,6 +18,10 @@
 
 namespace loopd {
 namespace {
+Eigen::Matrix3d imu_rotation(const EngineConfig::Imu& imu) { return rotation_from_rpy_deg(imu.rpy_deg[0], imu.rpy_deg[1], imu.rpy_deg[2]); }
+}  // namespace
+
+namespace {
 /// PoCL's kernel compiler: ~70 MB of resident code after the kernels are built, idle while loopd detects loops.
 const std::vector<std::string> kCompilerLibraries{"libLLVM", "libclang-cpp"};
 }  // namespace
@@ -35,6 +39,10 @@ std::optional<std::string> EngineConfig::validate() const {
   if (!(max_odometry_speed > 0.0)) return "input.max_odometry_speed must be > 0 [m/s]";
   if (auto e = sessions.validate()) return e;
   if (auto e = map_cloud.validate()) return e;
+  if (imu.rpy_deg.size() != 3) return "imu.rpy_deg must hold 3 angles (roll, pitch, yaw) [deg]";
+  for (const double a : imu.rpy_deg)
+    if (!(std::abs(a) <= 360.0)) return "imu.rpy_deg: angles must be finite and within +-360 deg";
+  if (!(imu.max_gap > 0.0 && imu.max_gap <= 1.0)) return "imu.max_gap must be in (0, 1] s";
   return std::nullopt;
 }
 
@@ -143,6 +151,29 @@ bool LoopdEngine::push_pose(const StampedPose& raw, double arrival_s) {
   return ok;
 }
 
+bool LoopdEngine::push_imu(const ImuSample& sample) {
+  const bool ok = imu_.empty() || sample.utime > imu_.back().utime;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.imu_in;
+    if (!ok) ++stats_.invalid_imu;
+  }
+  if (!ok || !config_.imu.enabled) return ok;
+  imu_.push_back(sample);
+  constexpr std::int64_t kKeptUs = 1000000;  // a second: two sweeps at 2 Hz
+  while (!imu_.empty() && imu_.front().utime < sample.utime - kKeptUs) imu_.pop_front();
+  return ok;
+}
+
+std::vector<ImuSample> LoopdEngine::gyro_between(std::int64_t begin_utime, std::int64_t end_utime) const {
+  if (imu_.empty() || imu_.front().utime > begin_utime || imu_.back().utime < end_utime) return {};  // not covered
+  const auto by_time = [](const ImuSample& a, std::int64_t t) { return a.utime < t; };
+  auto first = std::lower_bound(imu_.begin(), imu_.end(), begin_utime, by_time);
+  if (first->utime > begin_utime) --first;                                    // the last sample at or before the beginning
+  const auto last = std::lower_bound(first, imu_.end(), end_utime, by_time);  // the first at or after the end
+  return std::vector<ImuSample>(first, last + 1);
+}
+
 void LoopdEngine::update_input_health() {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.scans_lost_estimate = loss_.lost();
@@ -243,6 +274,10 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
     job.T_odom_scan = s.pose.T_world_sensor;
     job.previous = std::move(previous);
     job.before_previous = before_previous;
+    if (config_.imu.enabled && job.previous && !imu_.empty()) {  // over both sweeps: this one and the reference's
+      const std::int64_t reference_begin = before_previous.utime != 0 ? before_previous.utime : job.previous->utime - (s.utime - job.previous->utime);
+      job.gyro = gyro_between(reference_begin, s.utime);
+    }
     if (narrow) {
       job.submap = scan_window_.recent(s.utime, s.pose.T_world_sensor);
       keep_for_submaps(s);  // a copy: the keyframe's scan belongs to the next keyframes' windows too
@@ -430,15 +465,19 @@ std::vector<StampedPose> LoopdEngine::sweep_poses_from_scans(const Job& job) {
     if (dt_previous > 0.0 && dt_previous <= config_.deskew.max_pose_gap)
       odometry_previous_sweep = SweepIncrement{job.before_previous.T_world_sensor.inverse() * prev->T_odom_sensor, dt_previous};
   }
+  bool by_gyro = false;
+  const SweepBends bends = sweep_bends(job, odometry_T_previous_current, dt, odometry_previous_sweep.has_value(), &by_gyro);
   const SweepMotionResult m =
-      estimate_sweep_motion(prev->cloud, job.cloud, dt, odometry_T_previous_current, config_.sweep_motion, odometry_previous_sweep);
+      estimate_sweep_motion(prev->cloud, job.cloud, dt, odometry_T_previous_current, config_.sweep_motion, odometry_previous_sweep, bends);
   {
     std::lock_guard<std::mutex> s(stats_mutex_);
     ++(m.refined ? stats_.sweeps_from_scans : stats_.sweeps_from_odometry);
     if (m.refined && m.velocity_changed) ++stats_.sweeps_velocity_changed;
     if (m.shape_refined) ++stats_.sweeps_shape_refined;
+    if (m.bent) ++stats_.sweeps_gyro;
   }
   if (!m.refined) return {};
+  if (m.bent) return bent_sweep_path(job, m.T_previous_current, dt, bends.current);
   if (m.shape_refined) {  // the path through the sweep at its knots, anchored at the odometry's pose at the stamp
     const Eigen::Isometry3d T_odom_previous = job.T_odom_scan * m.T_previous_current.inverse();
     std::vector<StampedPose> path{{job.input.utime, job.T_odom_scan, 0.0}};
@@ -455,6 +494,39 @@ std::vector<StampedPose> LoopdEngine::sweep_poses_from_scans(const Job& job) {
   b.utime = job.input.utime;
   b.T_world_sensor = job.T_odom_scan;
   return {a, b};
+}
+
+SweepBends LoopdEngine::sweep_bends(const Job& job, const Eigen::Isometry3d& odometry_T_previous_current, double dt, bool previous_known,
+                                    bool* by_gyro) const {
+  const WindowScan& prev = *job.previous;
+  // The gyro's rotations, dead-reckoned at the odometry's speed through this sweep (the path curves as it turns).
+  const Eigen::Vector3d body_velocity = odometry_T_previous_current.translation() / dt;
+  const std::vector<StampedPose> gyro = integrate_gyro(job.gyro, imu_rotation(config_.imu), config_.imu.max_gap, body_velocity);
+  *by_gyro = !gyro.empty() && gyro.back().utime >= job.input.utime;
+  const double gap = config_.deskew.max_pose_gap;
+  SweepBends bends;
+  if (!*by_gyro) return bends;
+  bends.current = SweepBend::from_poses(gyro, job.input.utime, dt, gap);
+  bends.current_rotation = gyro_rotation(gyro, prev.utime, job.input.utime, config_.imu.max_gap);
+  if (!previous_known) return bends;
+  const double dt_previous = static_cast<double>(prev.utime - job.before_previous.utime) * 1e-6;
+  bends.previous = SweepBend::from_poses(gyro, prev.utime, dt_previous, gap);
+  bends.previous_rotation = gyro_rotation(gyro, job.before_previous.utime, prev.utime, config_.imu.max_gap);
+  return bends;
+}
+
+std::vector<StampedPose> LoopdEngine::bent_sweep_path(const Job& job, const Eigen::Isometry3d& T_previous_current, double dt, const SweepBend& bend) {
+  // At every sample of the bend: the scans' increment at a constant velocity, bent as the odometry's poses bend;
+  // anchored at the odometry's pose at the stamp.
+  std::vector<StampedPose> path;
+  path.reserve(bend.times().size());
+  const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
+  for (const double t : bend.times()) {
+    const Eigen::Isometry3d T = job.T_odom_scan * interpolate_screw(I, T_previous_current, t / dt) * bend.at(t);
+    path.push_back({job.input.utime + std::llround(t * 1e6), T, 0.0});
+  }
+  path.back().T_world_sensor = job.T_odom_scan;
+  return path;
 }
 
 double LoopdEngine::deskew_scan(Job& job) {

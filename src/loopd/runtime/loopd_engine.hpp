@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "loopd/base/deskew.hpp"
+#include "loopd/base/imu.hpp"
 #include "loopd/registration/sweep_motion.hpp"
 #include "loopd/store/map_cloud.hpp"
 #include "loopd/pipeline/keyframe_selector.hpp"
@@ -41,6 +42,13 @@ struct EngineConfig {
   /// scans without per-point times count as free of skew, so their keyframe steps are measured (correction.steps).
   bool compensated_upstream = false;
   SweepMotionConfig sweep_motion;
+  /// Gyro samples (push_imu) bend each sweep's path as the sensor turned through it, and give the previous sweep's
+  /// rotation, where deskew_from_scans measures the sweep's motion (imu.*).
+  struct Imu {
+    bool enabled = true;
+    std::vector<double> rpy_deg{0.0, 0.0, 0.0};  ///< [deg] roll, pitch, yaw of the IMU in the lidar's frame (R_sensor_imu)
+    double max_gap = 0.05;                       ///< [s] samples farther apart leave the sweep to the odometry's poses
+  } imu;
   KeyframeSubmapConfig submap;  ///< a narrow or sparse scan's keyframe cloud from the scans just before it
   LoopDetectorConfig detector;
   int num_threads = 0;                         ///< feature/verification workers; 0 = hardware threads
@@ -112,9 +120,10 @@ struct EngineProfile {
 
 struct EngineStats {
   std::int64_t scans_in = 0, poses_in = 0;
-  std::int64_t invalid_scans = 0;    ///< empty, all non-finite, too large, duplicate or out-of-order utime
-  std::int64_t invalid_poses = 0;    ///< duplicate or out-of-order utime
-  std::int64_t dropped_no_pose = 0;  ///< scans with no pose within tolerance / hold time
+  std::int64_t invalid_scans = 0;            ///< empty, all non-finite, too large, duplicate or out-of-order utime
+  std::int64_t invalid_poses = 0;            ///< duplicate or out-of-order utime
+  std::int64_t imu_in = 0, invalid_imu = 0;  ///< gyro samples pushed; of them with a duplicate or out-of-order utime
+  std::int64_t dropped_no_pose = 0;          ///< scans with no pose within tolerance / hold time
   std::int64_t keyframes = 0;
   std::int64_t shed = 0;              ///< keyframes whose features were skipped because the queue was full
   std::int64_t feature_failures = 0;  ///< keyframes whose descriptor/segmentation failed (too few points...)
@@ -143,6 +152,7 @@ struct EngineStats {
   std::int64_t sweeps_from_scans = 0;        ///< keyframes deskewed with the motion their scans measured (deskew.from_scans)
   std::int64_t sweeps_from_odometry = 0;     ///< keyframes that tried and kept the odometry's motion (scans disagreed, did not register)
   std::int64_t sweeps_shape_refined = 0;     ///< of sweeps_from_scans: with more than one turn rate (refine_sweep_shape)
+  std::int64_t sweeps_gyro = 0;              ///< of sweeps_from_scans: bent as the gyro turned through the sweep (SweepBend)
   std::int64_t sweeps_velocity_changed = 0;  ///< of sweeps_from_scans: the previous sweep at its own velocity (the odometry's changed)
   std::string device;
   EngineProfile profile;
@@ -169,6 +179,8 @@ class LoopdEngine {
   bool push_scan(std::int64_t utime, PointCloud cloud, double arrival_s);
   /// @brief A decoded odometry pose. Returns false (counted) for a duplicate or stale utime.
   bool push_pose(const StampedPose& pose, double arrival_s);
+  /// @brief A decoded gyro sample. Returns false (counted) unless its utime is later than the last sample's.
+  bool push_imu(const ImuSample& sample);
   /// @brief Lets waiting scans time out on the wall clock (live mode); when the sequential stage is idle, the sink's
   /// on_idle() runs (in its place, so never beside it).
   void tick(double wall_time_s);
@@ -207,11 +219,15 @@ class LoopdEngine {
     StampedPose before_previous;                  ///< the odometry's pose at the scan before `previous` (its sweep's motion); utime 0: none
     std::shared_ptr<const WindowScan> raw;        ///< the scan, when shared as the next one's `previous`: the worker copies it into cloud
     std::int64_t sweep_begin = 0, sweep_end = 0;  ///< [us] the first and last point time (the scan's utime without times)
+    std::vector<ImuSample> gyro;                  ///< gyro samples over this sweep and the one before it (imu.enabled)
   };
   void handle_associated(std::vector<AssociatedScan> scans);
   /// @brief Whether the odometry moved less than steps.max_unskewed_motion / _rotation_deg since the last scan (a
   ///        scan without times is then free of skew enough to register); remembers the pose.
   bool moved_little_since_last_scan(const Eigen::Isometry3d& T_odom_sensor);
+  /// The gyro samples from the last at or before begin_utime to the first at or after end_utime; empty when the
+  /// samples kept do not reach over both (ingest thread).
+  std::vector<ImuSample> gyro_between(std::int64_t begin_utime, std::int64_t end_utime) const;
   void update_input_health();
   void submit(Job job);
   bool ingest_scan(std::int64_t utime, PointCloud cloud, double arrival_s);
@@ -232,6 +248,11 @@ class LoopdEngine {
   std::shared_ptr<const WindowScan> keep_for_submaps(AssociatedScan scan);
   /// The sweep's motion from the job's scan and the one before it, as two poses for deskew() (empty: keep the odometry's).
   std::vector<StampedPose> sweep_poses_from_scans(const Job& job);
+  /// The shapes of the job's sweep and of the one before it off their constant-velocity paths, and their rotations,
+  /// from the gyro (by_gyro); empty without gyro samples over both sweeps.
+  SweepBends sweep_bends(const Job& job, const Eigen::Isometry3d& odometry_T_previous_current, double dt, bool previous_known, bool* by_gyro) const;
+  /// The path through a keyframe's sweep: the scans' increment bent as the gyro turned.
+  static std::vector<StampedPose> bent_sweep_path(const Job& job, const Eigen::Isometry3d& T_previous_current, double dt, const SweepBend& bend);
   /// True when the scan's sweep began before the first of its poses (deskew would extrapolate the motion backwards).
   static bool sweep_begins_before_poses(const AssociatedScan& scan);
   /// Logs what a keyframe's scan showed of the lidar when it differs from what was last logged (a few times at
@@ -295,6 +316,7 @@ class LoopdEngine {
   std::optional<Eigen::Isometry3d> last_scan_pose_;  ///< (ingest thread) the last scan's odometry pose
   StampedPose pose_before_previous_;                 ///< (ingest thread) the odometry pose of the scan before previous_scan_; utime 0: none
   std::shared_ptr<const WindowScan> previous_scan_;  ///< (ingest thread) the last scan with per-point times (deskew_from_scans)
+  std::deque<ImuSample> imu_;                        ///< (ingest thread) the last second of gyro samples
   mutable std::mutex stats_mutex_;
   std::string sensor_logged_;  ///< (under stats_mutex_) the last logged sensor layout's rings or rows
   int sensor_notes_ = 0;       ///< (under stats_mutex_) layout notes logged

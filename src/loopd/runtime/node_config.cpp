@@ -16,7 +16,7 @@ std::optional<std::string> TrajectoryPublisherConfig::validate() const {
 
 std::optional<std::string> NodeConfig::validate() const {
   if (lcm_url.empty()) return "lcm_url must not be empty";
-  for (const auto* c : {&scan_channel, &pose_channel, &loop_event_channel, &trajectory_channel, &status_channel})
+  for (const auto* c : {&scan_channel, &pose_channel, &imu_channel, &loop_event_channel, &trajectory_channel, &status_channel})
     if (c->empty()) return "channels: channel names must not be empty";
   if (input_queue_capacity < 1) return "input_queue_capacity must be >= 1";
   if (log_every_n < 1) return "log_every_n must be >= 1";
@@ -37,6 +37,7 @@ void bind(Binder& b, NodeConfig& n) {
   b.field("lcm_url", n.lcm_url);
   b.field("channels.scan", n.scan_channel);
   b.field("channels.pose", n.pose_channel);
+  b.field("channels.imu", n.imu_channel);
   b.field("channels.loop_event", n.loop_event_channel);
   b.field("channels.trajectory", n.trajectory_channel);
   b.field("channels.status", n.status_channel);

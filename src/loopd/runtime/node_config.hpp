@@ -24,6 +24,7 @@ struct NodeConfig {
   std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
   std::string scan_channel = "LIDAR_SCAN";
   std::string pose_channel = "ODOMETRY_POSE";
+  std::string imu_channel = "IMU";  ///< gyro samples (imu_t), read where imu.enabled
   std::string loop_event_channel = "LOOP_EVENT";
   std::string trajectory_channel = "CORRECTED_TRAJECTORY";
   std::string status_channel = "LOOPD_STATUS";
