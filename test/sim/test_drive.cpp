@@ -1,11 +1,14 @@
 // Simulated drive: route with revisits (same / opposite direction, lane offset, long and short loop), ground truth,
 // drifting odometry with residuals, determinism.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 
 #include "loopd/base/cloud_ops.hpp"
 #include "loopd/base/kdtree.hpp"
 #include "loopd/sim/drive.hpp"
+#include "loopd/sim/gyro_sim.hpp"
+#include "loopd/sim/odometry_stream.hpp"
 
 namespace {
 constexpr double kPi = 3.14159265358979323846;
@@ -190,4 +193,59 @@ TEST_CASE("a revisit of the drive overlaps its earlier visit after ground-truth 
   const double share = static_cast<double>(close) / static_cast<double>(q.size());
   WARN("scan " << qi << " (visit 1) vs scan " << mi << " (visit 0), " << best << " m apart: " << share << " within 0.3 m");
   CHECK(share >= 0.70);
+}
+
+TEST_CASE("a gyro on the drive turns as the ground truth turned, and odometry between the scans keeps the scans' poses", "[sim][drive][imu]") {
+  loopd::DriveConfig cfg;
+  cfg.num_scans = 200;
+  cfg.sensor = "vlp16";
+  cfg.route = "block";
+  const loopd::Drive drive = loopd::make_drive(cfg);
+  loopd::GyroSimConfig perfect;
+  perfect.noise_deg_s = 0.0;
+  perfect.bias_deg_s = 0.0;
+  // Integrated over every sweep, a noise-free gyro gives back the true rotation from scan to scan (a corner included).
+  double largest_turn = 0.0;
+  for (int i = 1; i < cfg.num_scans; ++i) {
+    std::vector<loopd::ImuSample> samples = loopd::simulate_gyro(drive, perfect, i - 1);
+    REQUIRE(samples.size() == 20);  // 200 Hz over a 0.1 s sweep
+    CHECK(samples.back().utime == drive.scans[static_cast<std::size_t>(i - 1)].utime);
+    const std::vector<loopd::ImuSample> next = loopd::simulate_gyro(drive, perfect, i);
+    samples = {samples.back()};
+    samples.insert(samples.end(), next.begin(), next.end());
+    const auto track = loopd::integrate_gyro(samples, Eigen::Matrix3d::Identity(), 0.05);
+    const Eigen::Matrix3d truth = drive.scans[static_cast<std::size_t>(i - 1)].T_world_sensor.linear().transpose() *
+                                  drive.scans[static_cast<std::size_t>(i)].T_world_sensor.linear();
+    const Eigen::Matrix3d turned = track.back().T_world_sensor.linear();
+    CHECK(Eigen::AngleAxisd(truth.transpose() * turned).angle() < 1e-9);
+    largest_turn = std::max(largest_turn, Eigen::AngleAxisd(truth).angle());
+  }
+  CHECK(largest_turn * 180.0 / kPi > 3.0);  // the drive turned a corner
+  // Noise and a bias within the configured bound, seeded: the same drive gives the same samples.
+  const loopd::GyroSimConfig noisy;
+  const auto a = loopd::simulate_gyro(drive, noisy, 50), b = loopd::simulate_gyro(drive, noisy, 50), p = loopd::simulate_gyro(drive, perfect, 50);
+  REQUIRE(a.size() == p.size());
+  double largest = 0.0;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    CHECK(a[k].angular_velocity == b[k].angular_velocity);
+    largest = std::max(largest, (a[k].angular_velocity - p[k].angular_velocity).cwiseAbs().maxCoeff());
+  }
+  CHECK(largest > 0.0);
+  CHECK(largest * 180.0 / kPi < 0.05 + 5.0 * 0.1);  // bias bound + 5 sigma of noise
+  CHECK(loopd::simulate_gyro(drive, loopd::GyroSimConfig{0.0}, 50).empty());
+
+  // Odometry at 100 Hz: nine poses between two scans, the step's drift spread evenly; at the scans the drive's own.
+  const auto between = loopd::odometry_between_scans(drive, 120, 100.0);
+  REQUIRE(between.size() == 9);
+  const auto& s0 = drive.scans[119];
+  const auto& s1 = drive.scans[120];
+  CHECK(between.front().utime == s0.utime + 10000);
+  CHECK(between.back().utime == s1.utime - 10000);
+  const Eigen::Isometry3d drift =
+      (s0.T_world_sensor.inverse() * s1.T_world_sensor).inverse() * (s0.odometry.T_world_sensor.inverse() * s1.odometry.T_world_sensor);
+  const Eigen::Isometry3d half = s0.odometry.T_world_sensor * (s0.T_world_sensor.inverse() * drive.pose_at_distance(s0.route_distance + 0.5)) *
+                                 loopd::interpolate_screw(Eigen::Isometry3d::Identity(), drift, 0.5);
+  CHECK((between[4].T_world_sensor.translation() - half.translation()).norm() < 1e-9);
+  CHECK(loopd::odometry_between_scans(drive, 0, 100.0).empty());
+  CHECK(loopd::odometry_between_scans(drive, 120, 10.0).empty());  // not above the scan rate
 }

@@ -12,7 +12,9 @@
 
 #include "loopd/base/stopwatch.hpp"
 #include "loopd/sim/drive.hpp"
+#include "loopd/sim/gyro_sim.hpp"
 #include "loopd/sim/movers.hpp"
+#include "loopd/sim/odometry_stream.hpp"
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
 #include "tool_output.hpp"
@@ -159,7 +161,13 @@ void print_summary_json(const loopd::Drive& drive, const std::string& out, const
 
 /// Writes every scan with its odometry and ground truth: scan i+1 is ray-cast on a worker while scan i is encoded and
 /// written (same results as serial: each scan only depends on its index). False when a write failed.
-bool write_drive(const loopd::Drive& drive, loopd::LogWriter* writer, bool quiet, RunFigures* run) {
+/// What is written besides the scans and the scan-rate poses: a gyro on IMU, odometry poses between the scans.
+struct Streams {
+  loopd::GyroSimConfig gyro{0.0};  // no gyro unless --imu-rate
+  double pose_rate_hz = 0.0;       ///< odometry poses at this rate (0: only at the scans)
+};
+
+bool write_drive(const loopd::Drive& drive, const Streams& streams, loopd::LogWriter* writer, bool quiet, RunFigures* run) {
   const int n = static_cast<int>(drive.scans.size());
   loopd::tools::Progress progress("loopd-sim", n, !quiet);
   std::vector<double>&points_per_scan = run->points_per_scan, &ms_cast = run->ms_cast, &ms_write = run->ms_write;
@@ -183,6 +191,20 @@ bool write_drive(const loopd::Drive& drive, loopd::LogWriter* writer, bool quiet
     }
     loopd::Stopwatch ws;
     const auto& sc = drive.scans[static_cast<std::size_t>(i)];
+    // Time order: the gyro's samples and the odometry's poses of this scan's sweep come before its stamp.
+    std::vector<std::pair<std::int64_t, loopd::imu_t>> imu;
+    for (const loopd::ImuSample& g : loopd::simulate_gyro(drive, streams.gyro, i)) imu.emplace_back(g.utime, loopd::to_message(g, g.utime));
+    const std::vector<loopd::StampedPose> between = loopd::odometry_between_scans(drive, i, streams.pose_rate_hz);
+    std::size_t gi = 0, pi = 0;
+    while (ok && (gi < imu.size() || pi < between.size())) {
+      if (pi == between.size() || (gi < imu.size() && imu[gi].first <= between[pi].utime)) {
+        ok = writer->write_message(loopd::channels::kImu, imu[gi].first, imu[gi].second);
+        ++gi;
+      } else {
+        ok = writer->write_message(loopd::channels::kPose, between[pi].utime, loopd::to_message(between[pi], i));
+        ++pi;
+      }
+    }
     loopd::StampedPose gt;
     gt.utime = sc.utime;
     gt.T_world_sensor = sc.T_world_sensor;
@@ -255,6 +277,17 @@ int main(int argc, char** argv) {
                  "also write the boxes of every state of the movable objects that change during the drive (loopd-movers JSON)");
   add_drive_options(app, &cfg, &reset_at);
   add_effect_options(app, &cfg.effects);
+  Streams streams;
+  app.add_option("--imu-rate", streams.gyro.rate_hz,
+                 "gyro samples per second on IMU (imu_t, in the lidar's frame: the true turn rate plus --gyro-noise and a constant "
+                 "bias within --gyro-bias per axis); 0 = none")
+      ->capture_default_str();
+  app.add_option("--gyro-noise", streams.gyro.noise_deg_s, "[deg/s] gyro white noise per sample and axis")->capture_default_str();
+  app.add_option("--gyro-bias", streams.gyro.bias_deg_s, "[deg/s] largest constant gyro bias per axis")->capture_default_str();
+  app.add_option("--pose-rate", streams.pose_rate_hz,
+                 "odometry poses per second (above --rate: poses between the scans follow the true path, the step's drift spread "
+                 "evenly; 0 = at the scans only)")
+      ->capture_default_str();
   app.add_option("--threads", threads, "ray-casting threads (0 = all cores)")->capture_default_str();
   app.add_flag("--list-sensors", list, "list the lidar models and exit");
   app.add_flag("--json", json, "print one JSON object as the last line");
@@ -269,6 +302,14 @@ int main(int argc, char** argv) {
   cfg.odometry_reset_at = reset_at;
   if (auto err = cfg.validate()) {
     std::cerr << "loopd-sim: " << *err << "\n";
+    return 2;
+  }
+  if (auto err = streams.gyro.validate()) {
+    std::cerr << "loopd-sim: " << *err << "\n";
+    return 2;
+  }
+  if (!(streams.pose_rate_hz >= 0.0 && streams.pose_rate_hz <= 10000.0)) {
+    std::cerr << "loopd-sim: --pose-rate must be in [0, 10000] Hz\n";
     return 2;
   }
 
@@ -286,7 +327,7 @@ int main(int argc, char** argv) {
   }
   RunFigures run;
   run.threads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const bool ok = write_drive(drive, &writer, quiet, &run);
+  const bool ok = write_drive(drive, streams, &writer, quiet, &run);
   writer.close();
   if (!ok) {
     std::cerr << "loopd-sim: write to " << out << " failed\n";
