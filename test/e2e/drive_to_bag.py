@@ -16,7 +16,9 @@ layout's driver's unit; signed, since loopd-sim stamps the end of the sweep (tim
 Each ODOMETRY_POSE (T_odom_lidar) becomes nav_msgs/Odometry on /odom (odom -> base_link) and a tf2_msgs/TFMessage on
 /tf (odom -> base_link), with T_odom_base = T_odom_lidar * inv(T_base_lidar); /tf_static holds base_link -> mount ->
 lidar (T_base_lidar = T_base_mount * T_mount_lidar, printed by --print-extrinsic). Each GROUND_TRUTH_POSE becomes a
-geometry_msgs/PoseStamped of base_link on /ground_truth. /tf also carries base_link -> wheel, which no pose needs.
+geometry_msgs/PoseStamped of base_link on /ground_truth. /tf also carries base_link -> wheel, which no pose needs. Each IMU
+sample (imu_t, in the lidar's frame) becomes a sensor_msgs/Imu on /imu in frame "imu", mounted upside down and turned
+on base_link (/tf_static base_link -> imu), its turn rate and specific force turned into that frame.
 Bag times are the log's event times. With --bad-messages the bag also holds, between scans, one PointCloud2 without
 an x field, one Odometry with a zero quaternion and one /tf message with a NaN translation. --corrupt-index COPY also
 writes a copy of the bag with a damaged index entry (rosbag_storage then reads outside its buffer).
@@ -34,7 +36,7 @@ import rosbag
 import rospy
 from geometry_msgs.msg import PoseStamped, TransformStamped
 from nav_msgs.msg import Odometry
-from sensor_msgs.msg import PointCloud2, PointField
+from sensor_msgs.msg import Imu, PointCloud2, PointField
 from tf2_msgs.msg import TFMessage
 
 SYNC = 0xEDA1DA01
@@ -130,6 +132,7 @@ def rpy_quat(roll, pitch, yaw):
 T_BASE_MOUNT = ((0.5, 0.0, 1.2), rpy_quat(0.0, 0.0, math.radians(90.0)))
 T_MOUNT_LIDAR = ((0.1, 0.05, 0.3), rpy_quat(math.radians(2.0), math.radians(-3.0), math.radians(10.0)))
 T_BASE_LIDAR = compose(T_BASE_MOUNT, T_MOUNT_LIDAR)
+T_BASE_IMU = ((0.2, -0.1, 0.4), rpy_quat(math.radians(180.0), 0.0, math.radians(-30.0)))  # upside down, turned
 
 
 def stamp(utime):
@@ -237,7 +240,8 @@ def cloud_message(scan, layout):
 
 
 def write_static(bag, utime):
-    msg = TFMessage(transforms=[transform('base_link', 'mount', utime, T_BASE_MOUNT), transform('mount', 'lidar', utime, T_MOUNT_LIDAR)])
+    msg = TFMessage(transforms=[transform('base_link', 'mount', utime, T_BASE_MOUNT), transform('mount', 'lidar', utime, T_MOUNT_LIDAR),
+                                transform('base_link', 'imu', utime, T_BASE_IMU)])
     bag.write('/tf_static', msg, stamp(utime))
 
 
@@ -257,6 +261,20 @@ def write_pose(bag, ev_time, channel, pose):
         gt.header.stamp, gt.header.frame_id, gt.header.seq = stamp(pose['utime']), 'map', pose['seq']
         set_pose(gt.pose, T_base)
         bag.write('/ground_truth', gt, stamp(ev_time))
+
+
+def write_imu(bag, ev_time, data):
+    utime, seq = struct.unpack_from('>qq', data, 8)
+    w = struct.unpack_from('>3d', data, 24)
+    f = struct.unpack_from('>3d', data, 48)
+    q_imu_lidar = inverse(T_BASE_IMU)[1]
+    q_imu_lidar = quat_mul(q_imu_lidar, T_BASE_LIDAR[1])
+    msg = Imu()
+    msg.header.stamp, msg.header.frame_id, msg.header.seq = stamp(utime), 'imu', seq & 0xFFFFFFFF
+    msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z = rotate(q_imu_lidar, w)
+    msg.linear_acceleration.x, msg.linear_acceleration.y, msg.linear_acceleration.z = rotate(q_imu_lidar, f)
+    msg.orientation_covariance[0] = -1.0  # no orientation
+    bag.write('/imu', msg, stamp(ev_time))
 
 
 def write_bad_messages(bag, utime):
@@ -324,6 +342,8 @@ def main():
                     write_bad_messages(bag, ev_time + 50000)
             elif channel in ('ODOMETRY_POSE', 'GROUND_TRUTH_POSE'):
                 write_pose(bag, ev_time, channel, decode_pose(data))
+            elif channel == 'IMU':
+                write_imu(bag, ev_time, data)
     if args.corrupt_index:
         corrupt_index(args.out, args.corrupt_index)
     print('drive_to_bag: %d scans -> %s' % (scans, args.out))

@@ -263,6 +263,67 @@ TEST_CASE("bag2lcm turns a ROS 1 bag of a simulated drive back into the same dri
   CHECK(decisions.at("accepted_both") == same.at("accepted_both"));
 }
 
+/// The gyro samples of a drive log, by utime.
+std::map<std::int64_t, imu_t> read_gyro(const std::string& path) {
+  std::map<std::int64_t, imu_t> out;
+  LogReader reader;
+  std::string error;
+  REQUIRE(reader.open(path, &error));
+  LogEvent ev;
+  while (reader.next(&ev)) {
+    imu_t m;
+    if (ev.channel == channels::kImu && LogReader::decode(ev, &m)) out[m.utime] = m;
+  }
+  return out;
+}
+
+TEST_CASE("bag2lcm turns a gyro's sensor_msgs/Imu into imu_t in the scans' frame", "[bag2lcm][e2e]") {
+  LOOPD_REQUIRE_BAG_TOOLS();
+  TempDir tmp;
+  const std::string drive = tmp / "drive.lcmlog", bag = tmp / "imu.bag", out = tmp / "out.lcmlog";
+  int rc = 0;
+  std::string log = test::run_command(
+      kBin + "/tools/loopd-sim/loopd-sim --out " + drive + " --sensor vlp16 --scans 10 --seed 11 --route block --imu-rate 200 --quiet", &rc);
+  INFO(log);
+  REQUIRE(rc == 0);
+  // The bag's IMU is mounted upside down and turned on base_link (/tf_static base_link -> imu): its samples are in
+  // that frame, and bag2lcm turns them back into the lidar's through base_link -> mount -> lidar.
+  log = test::run_command(kPython + " " + kScript + " " + drive + " " + bag, &rc);
+  INFO(log);
+  REQUIRE(rc == 0);
+  const nlohmann::json j =
+      run_json(kBag2lcm + " " + bag + " --out " + out + " --cloud-topic /points --odom-topic /odom --imu-topic /imu --quiet --json", 0);
+  CHECK(topic(j, "/imu").at("in") == 200);
+  CHECK(topic(j, "/imu").at("out") == 200);
+  CHECK(topic(j, "/imu").at("channel") == "IMU");
+  const auto original = read_gyro(drive), converted = read_gyro(out);
+  REQUIRE(original.size() == 200);
+  REQUIRE(converted.size() == 200);
+  double largest = 0.0, worst = 0.0;
+  for (const auto& [utime, m] : original) {
+    const auto it = converted.find(utime);
+    REQUIRE(it != converted.end());
+    for (int a = 0; a < 3; ++a) {
+      largest = std::max(largest, std::abs(m.angular_velocity[a]));
+      worst = std::max(worst, std::abs(m.angular_velocity[a] - it->second.angular_velocity[a]));
+    }
+  }
+  CAPTURE(largest, worst);
+  CHECK(largest > 1e-3);  // the gyro measured something (noise at least)
+  CHECK(worst < 1e-12);
+  // Without the IMU's transform the samples are written as measured, and the report says so.
+  const nlohmann::json unrotated =
+      run_json(kBag2lcm + " " + bag + " --out " + (tmp / "raw.lcmlog") +
+                   " --cloud-topic /points --odom-topic /odom --imu-topic /imu --tf-static-topic /none --base-frame lidar "
+                   "--quiet --json",
+               0);
+  CHECK(topic(unrotated, "/imu").at("out") == 200);
+  CHECK(topic(unrotated, "/imu").at("written_with_notes").at("in the IMU's frame").at("count") == 200);
+  const nlohmann::json missing = run_json(
+      kBag2lcm + " " + bag + " --out " + (tmp / "x.lcmlog") + " --cloud-topic /points --odom-topic /odom --imu-topic /nope --quiet --json", 2);
+  CHECK(missing.at("error").get<std::string>().find("topic /nope is not in") != std::string::npos);
+}
+
 TEST_CASE("bag2lcm refuses damaged bags with an error that names the problem, and never crashes", "[bag2lcm][e2e]") {
   LOOPD_REQUIRE_BAG_TOOLS();
   TempDir tmp;

@@ -4,6 +4,7 @@
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/Imu.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_msgs/TFMessage.h>
 
@@ -100,6 +101,7 @@ class Converter {
   void on_odometry(const rosbag::MessageInstance& m, std::int64_t index);
   void on_tf(const rosbag::MessageInstance& m, std::int64_t index);
   void on_ground_truth(const rosbag::MessageInstance& m, std::int64_t index);
+  void on_imu(const rosbag::MessageInstance& m, std::int64_t index);
   void skip(Role role, const std::string& reason, std::int64_t index, const std::string& detail);
   void note(Role role, const std::string& reason, std::int64_t index, const std::string& detail);
   void write_pose(Role role, const rosbag::MessageInstance& m, const ros::Time& stamp, std::uint32_t seq, const Eigen::Isometry3d& T);
@@ -113,9 +115,11 @@ class Converter {
   rosbag::Bag bag_;
   LogWriter writer_;
   FrameTree static_, tf_;
-  std::set<std::string> moved_;                             ///< child frames /tf has moved
-  std::string child_frame_;                                 ///< the first odometry message's child_frame_id
-  std::map<std::string, Eigen::Isometry3d> T_body_sensor_;  ///< ground-truth bodies' extrinsics
+  std::set<std::string> moved_;                                         ///< child frames /tf has moved
+  std::string child_frame_;                                             ///< the first odometry message's child_frame_id
+  std::map<std::string, Eigen::Isometry3d> T_body_sensor_;              ///< ground-truth bodies' extrinsics
+  std::map<std::string, std::optional<Eigen::Matrix3d>> R_sensor_imu_;  ///< by IMU frame; nullopt: not connected to the scans' frame
+  std::optional<Role> imu_;                                             ///< the IMU topic's entry in r_.topics (after the others)
 };
 
 void Converter::skip(Role role, const std::string& reason, std::int64_t index, const std::string& detail) {
@@ -152,10 +156,12 @@ void Converter::open() {
   for (const rosbag::ConnectionInfo* c : all.getConnections())
     if (present.insert(c->topic).second) listing += (listing.empty() ? "" : ", ") + c->topic + " (" + c->datatype + ")";
   for (Role role : {kScans, kOdometry, kGroundTruth}) {
-    if (role >= r_.topics.size() || role == kStatic) continue;
+    if (role >= r_.topics.size() || role == kStatic || (imu_ && role == *imu_)) continue;
     if (!present.count(stats(role).topic))
       throw Fatal("topic " + stats(role).topic + " is not in " + o_.bag + " (its topics: " + (listing.empty() ? "none" : listing) + ")");
   }
+  if (imu_ && !present.count(stats(*imu_).topic))
+    throw Fatal("topic " + stats(*imu_).topic + " is not in " + o_.bag + " (its topics: " + (listing.empty() ? "none" : listing) + ")");
 }
 
 template <typename T>
@@ -337,6 +343,30 @@ void Converter::on_ground_truth(const rosbag::MessageInstance& m, std::int64_t i
   write_pose(kGroundTruth, m, stamp, seq, T_world_body * T->second);
 }
 
+void Converter::on_imu(const rosbag::MessageInstance& m, std::int64_t index) {
+  const auto msg = instantiate<sensor_msgs::Imu>(m, index, where_);
+  ++stats(*imu_).in;
+  const std::string frame = frame_name(msg->header.frame_id);
+  auto R = R_sensor_imu_.find(frame);
+  if (R == R_sensor_imu_.end()) {
+    const auto T = frame.empty() ? std::nullopt : static_.lookup(r_.sensor_frame, frame);
+    R = R_sensor_imu_.emplace(frame, T ? std::optional<Eigen::Matrix3d>(T->linear()) : std::nullopt).first;
+  }
+  const Eigen::Vector3d w(msg->angular_velocity.x, msg->angular_velocity.y, msg->angular_velocity.z);
+  const Eigen::Vector3d a(msg->linear_acceleration.x, msg->linear_acceleration.y, msg->linear_acceleration.z);
+  if (!w.allFinite()) return skip(*imu_, "turn rate not finite", index, "angular_velocity " + std::to_string(w.x()) + " ...");
+  if (!R->second)
+    note(*imu_, "in the IMU's frame", index,
+         "no transform between frame '" + frame + "' and the scans' frame '" + r_.sensor_frame + "' on " + o_.tf_static_topic +
+             ": written as measured (set loopd's imu.rpy_deg to the IMU's mounting)");
+  const Eigen::Matrix3d rotate = R->second ? *R->second : Eigen::Matrix3d::Identity();
+  imu_t out = to_message(ImuSample{to_utime(msg->header.stamp), rotate * w}, msg->header.seq);
+  const Eigen::Vector3d f = rotate * a;
+  for (int i = 0; i < 3; ++i) out.linear_acceleration[i] = f[i];
+  if (!writer_.write_message(stats(*imu_).channel, to_utime(m.getTime()), out)) throw Fatal("cannot write to " + o_.out);
+  ++stats(*imu_).out;
+}
+
 void Converter::main_pass() {
   copy_text(where_->phase, sizeof(where_->phase), "converting");
   std::vector<std::string> topics;
@@ -351,6 +381,8 @@ void Converter::main_pass() {
     const std::int64_t index = next_index[topic]++;
     if (topic == o_.cloud_topic) {
       on_cloud(m, index);
+    } else if (imu_ && topic == stats(*imu_).topic) {
+      on_imu(m, index);
     } else if (topic == stats(kOdometry).topic) {
       if (o_.odom_topic.empty()) {
         on_tf(m, index);
@@ -377,6 +409,10 @@ Report Converter::run() {
                                  odom ? "nav_msgs/Odometry" : "tf2_msgs/TFMessage", o_.odom_channel);
   stats(kStatic) = topic_stats(o_.tf_static_topic, "static transforms", "tf2_msgs/TFMessage", "-");
   if (!o_.gt_topic.empty()) stats(kGroundTruth) = topic_stats(o_.gt_topic, "ground truth", "", o_.gt_channel);
+  if (!o_.imu_topic.empty()) {  // after the others (index 3 without ground truth)
+    imu_ = static_cast<Role>(r_.topics.size());
+    r_.topics.push_back(topic_stats(o_.imu_topic, "gyro", "sensor_msgs/Imu", o_.imu_channel));
+  }
   std::string error;
   try {
     open();

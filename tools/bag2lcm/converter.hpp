@@ -14,12 +14,13 @@ struct Options {
   std::string cloud_topic;
   std::string odom_topic;  ///< nav_msgs/Odometry; or, when empty, the TF chain tf_parent -> tf_child
   std::string tf_parent, tf_child;
-  std::string gt_topic;  ///< optional: nav_msgs/Odometry or geometry_msgs/PoseStamped
+  std::string gt_topic;   ///< optional: nav_msgs/Odometry or geometry_msgs/PoseStamped
+  std::string imu_topic;  ///< optional: sensor_msgs/Imu, written as imu_t turned into the scans' frame (/tf_static)
   std::string tf_topic = "/tf", tf_static_topic = "/tf_static";
   std::string base_frame;    ///< the body the odometry gives the pose of (default: its child_frame_id, or tf_child)
   std::string gt_frame;      ///< the body of a PoseStamped ground truth (default: base_frame)
   std::string sensor_frame;  ///< default: the first scan's frame_id
-  std::string scan_channel = "LIDAR_SCAN", odom_channel = "ODOMETRY_POSE", gt_channel = "GROUND_TRUTH_POSE";
+  std::string scan_channel = "LIDAR_SCAN", odom_channel = "ODOMETRY_POSE", gt_channel = "GROUND_TRUTH_POSE", imu_channel = "IMU";
   int rings = 0;  ///< number of rings; 0: from the ring indices (largest + 1, rounded up to a multiple of 8)
   std::uint64_t max_points = 4000000;
   bool progress = true;

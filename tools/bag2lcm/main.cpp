@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <iostream>
 #include <new>
+#include <set>
 
 #include "converter.hpp"
 #include "report.hpp"
@@ -74,6 +75,9 @@ int main(int argc, char** argv) {
                      ->type_name("FRAME_PARENT FRAME_CHILD");
   odom->excludes(tf_opt);
   app.add_option("--gt-topic", o.gt_topic, "ground truth: nav_msgs/Odometry or geometry_msgs/PoseStamped topic");
+  app.add_option("--imu-topic", o.imu_topic,
+                 "sensor_msgs/Imu topic of a gyro: written on --imu-channel, its turn rate turned into the scans' frame by /tf_static "
+                 "(as measured, and said so, when the IMU's frame is not connected to it)");
   app.add_option("--base-frame", o.base_frame, "the body the odometry gives the pose of (default: its child_frame_id, or FRAME_CHILD)");
   app.add_option("--gt-frame", o.gt_frame, "the body of the ground truth (default: an Odometry's child_frame_id, else the base frame)");
   app.add_option("--sensor-frame", o.sensor_frame, "frame of every scan (default: the first scan's frame_id; other frame_ids are skipped)");
@@ -84,6 +88,7 @@ int main(int argc, char** argv) {
   app.add_option("--scan-channel", o.scan_channel)->capture_default_str();
   app.add_option("--odometry-channel", o.odom_channel)->capture_default_str();
   app.add_option("--ground-truth-channel", o.gt_channel)->capture_default_str();
+  app.add_option("--imu-channel", o.imu_channel)->capture_default_str();
   app.add_flag("--json", json, "print one JSON object as the last stdout line");
   app.add_flag("--quiet", quiet, "no progress bar");
   app.footer(
@@ -100,8 +105,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::string pose_topic = o.odom_topic.empty() ? o.tf_topic : o.odom_topic;
-  if (o.cloud_topic == pose_topic || (!o.gt_topic.empty() && (o.gt_topic == o.cloud_topic || o.gt_topic == pose_topic))) {
-    std::cerr << "bag2lcm: the scan, odometry (or --tf-topic) and ground-truth topics must differ\n";
+  const std::set<std::string> distinct{o.cloud_topic, pose_topic, o.gt_topic.empty() ? o.cloud_topic : o.gt_topic,
+                                       o.imu_topic.empty() ? o.cloud_topic : o.imu_topic};
+  const std::size_t expected = 2 + (o.gt_topic.empty() ? 0 : 1) + (o.imu_topic.empty() ? 0 : 1);
+  if (distinct.size() != expected) {
+    std::cerr << "bag2lcm: the scan, odometry (or --tf-topic), ground-truth and IMU topics must differ\n";
     return 2;
   }
   if (o.rings < 0 || o.rings > 512) {

@@ -176,6 +176,7 @@ bool write_drive(const loopd::Drive& drive, const Streams& streams, loopd::LogWr
   bool ok = true;
 
   loopd::PointCloud current, next;
+  std::int64_t imu_seq = 0;
   loopd::Stopwatch sw;
   current = drive.simulate(0, nt);
   ms_cast.push_back(sw.ms());
@@ -193,7 +194,7 @@ bool write_drive(const loopd::Drive& drive, const Streams& streams, loopd::LogWr
     const auto& sc = drive.scans[static_cast<std::size_t>(i)];
     // Time order: the gyro's samples and the odometry's poses of this scan's sweep come before its stamp.
     std::vector<std::pair<std::int64_t, loopd::imu_t>> imu;
-    for (const loopd::ImuSample& g : loopd::simulate_gyro(drive, streams.gyro, i)) imu.emplace_back(g.utime, loopd::to_message(g, g.utime));
+    for (const loopd::ImuSample& g : loopd::simulate_gyro(drive, streams.gyro, i)) imu.emplace_back(g.utime, loopd::to_message(g, imu_seq++));
     const std::vector<loopd::StampedPose> between = loopd::odometry_between_scans(drive, i, streams.pose_rate_hz);
     std::size_t gi = 0, pi = 0;
     while (ok && (gi < imu.size() || pi < between.size())) {
