@@ -18,10 +18,9 @@
 
 namespace loopd {
 namespace {
+/// R_sensor_imu of imu.rpy_deg.
 Eigen::Matrix3d imu_rotation(const EngineConfig::Imu& imu) { return rotation_from_rpy_deg(imu.rpy_deg[0], imu.rpy_deg[1], imu.rpy_deg[2]); }
-}  // namespace
 
-namespace {
 /// PoCL's kernel compiler: ~70 MB of resident code after the kernels are built, idle while loopd detects loops.
 const std::vector<std::string> kCompilerLibraries{"libLLVM", "libclang-cpp"};
 }  // namespace
@@ -516,8 +515,8 @@ SweepBends LoopdEngine::sweep_bends(const Job& job, const Eigen::Isometry3d& odo
 }
 
 std::vector<StampedPose> LoopdEngine::bent_sweep_path(const Job& job, const Eigen::Isometry3d& T_previous_current, double dt, const SweepBend& bend) {
-  // At every sample of the bend: the scans' increment at a constant velocity, bent as the odometry's poses bend;
-  // anchored at the odometry's pose at the stamp.
+  // At every sample of the bend: the scans' increment at a constant velocity, bent as the gyro turned; anchored at the
+  // odometry's pose at the stamp.
   std::vector<StampedPose> path;
   path.reserve(bend.times().size());
   const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
