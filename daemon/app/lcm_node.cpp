@@ -431,7 +431,8 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   });
 
   if (log_enabled(LogLevel::kInfo))
-    std::cerr << "loopd: listening on " << node.scan_channel << " and " << node.pose_channel << " (" << node.lcm_url
+    std::cerr << "loopd: listening on " << node.scan_channel << ", " << node.pose_channel
+              << (engine_config.imu.enabled ? " and " + node.imu_channel : std::string()) << " (" << node.lcm_url
               << "), descriptor device: " << engine.stats().device << std::endl;
   ServiceLink service(node, runtime, ingest_steps);
   service.ready();  // the map is open and resumed, both channels subscribed
