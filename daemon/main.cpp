@@ -62,10 +62,10 @@ void print_summary(const loopd::RunSummary& s, bool replay) {
   if (e.sweeps_from_scans + e.sweeps_from_odometry > 0)
     std::fprintf(stderr,
                  "loopd: deskew: %lld sweeps with the motion their scans measured (%lld where the motion changed between two sweeps, %lld "
-                 "with more than one turn rate, %lld bent as the gyro turned), %lld with the odometry's (the scans disagreed or did not "
-                 "register)\n",
+                 "with more than one turn rate, %lld bent as the gyro turned, %lld whose gyro disagreed), %lld with the odometry's (the scans "
+                 "disagreed or did not register)\n",
                  static_cast<long long>(e.sweeps_from_scans), static_cast<long long>(e.sweeps_velocity_changed),
-                 static_cast<long long>(e.sweeps_shape_refined), static_cast<long long>(e.sweeps_gyro),
+                 static_cast<long long>(e.sweeps_shape_refined), static_cast<long long>(e.sweeps_gyro), static_cast<long long>(e.sweeps_gyro_refused),
                  static_cast<long long>(e.sweeps_from_odometry));
   if (e.steps_measured + e.steps_refused + e.steps_skewed > 0)
     std::fprintf(stderr,

@@ -168,7 +168,9 @@ TEST_CASE("a gyro on IMU bends each keyframe's sweep as the sensor turned, and w
   const auto start = gyro.log.rfind(", ", pos) + 2;
   const int bent = std::stoi(gyro.log.substr(start, pos - start));
   CHECK(bent >= gyro.status.keyframes - 5);
-  CHECK(plain.log.find(", 0 bent as the gyro turned)") != std::string::npos);
+  CHECK(plain.log.find(", 0 bent as the gyro turned, 0 whose gyro disagreed)") != std::string::npos);
+  CHECK(gyro.log.find(" 0 whose gyro disagreed") != std::string::npos);
+  CHECK(gyro.log.find("WARNING") == std::string::npos);
   // Switched off, the gyro's messages change nothing: the same decisions and trajectory as the drive without them.
   CHECK(compare(path("ignored.lcmlog"), path("plain_out.lcmlog"), "0") == 0);
   CHECK(compare(path("gyro.lcmlog"), path("plain_out.lcmlog")) == 1);
@@ -177,5 +179,21 @@ TEST_CASE("a gyro on IMU bends each keyframe's sweep as the sensor turned, and w
   CHECK(gyro.eval["accepted"].get<int>() >= plain.eval["accepted"].get<int>() - 1);
   CHECK(gyro.eval["loop_translation_error_median"].get<double>() < 0.02);
   CHECK(gyro.eval["loop_rotation_error_p95_deg"].get<double>() < 0.35);
+
+  // Configured upside down (imu.rpy_deg roll 180: its turns about z come out reversed), the gyro disagrees with the
+  // odometry in every turn: said once, those sweeps deskewed without it, no wrong loop.
+  const std::string flipped = path("flipped.yaml");
+  std::ofstream(flipped) << "imu:\n  rpy_deg: [180, 0, 0]\n";
+  const Replay wrong = replay(path("imu.lcmlog"), flipped, path("flipped.lcmlog"));
+  INFO(wrong.log);
+  const auto first = wrong.log.find("WARNING: over a sweep the gyro on IMU turned");
+  CHECK(first != std::string::npos);
+  CHECK(wrong.log.find("WARNING", first + 1) == std::string::npos);
+  const auto refused_at = wrong.log.find(" whose gyro disagreed");
+  REQUIRE(refused_at != std::string::npos);
+  const auto refused_start = wrong.log.rfind(", ", refused_at) + 2;
+  CHECK(std::stoi(wrong.log.substr(refused_start, refused_at - refused_start)) >= 20);  // the corners' sweeps
+  CHECK(wrong.eval["closure_precision"].get<double>() == 1.0);
+  CHECK(wrong.eval["loop_translation_error_median"].get<double>() < 0.02);
   fs::remove_all(dir);
 }

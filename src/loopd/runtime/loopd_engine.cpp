@@ -14,6 +14,7 @@
 
 #include "loopd/runtime/heap_release.hpp"
 #include "loopd/store/map_cloud_codec.hpp"
+#include "loopd/base/angles.hpp"
 #include "loopd/runtime/log_level.hpp"
 
 namespace loopd {
@@ -464,8 +465,9 @@ std::vector<StampedPose> LoopdEngine::sweep_poses_from_scans(const Job& job) {
     if (dt_previous > 0.0 && dt_previous <= config_.deskew.max_pose_gap)
       odometry_previous_sweep = SweepIncrement{job.before_previous.T_world_sensor.inverse() * prev->T_odom_sensor, dt_previous};
   }
-  bool by_gyro = false;
-  const SweepBends bends = sweep_bends(job, odometry_T_previous_current, dt, odometry_previous_sweep.has_value(), &by_gyro);
+  GyroUse gyro;
+  const SweepBends bends = sweep_bends(job, odometry_T_previous_current, dt, odometry_previous_sweep.has_value(), &gyro);
+  if (gyro.refused) note_gyro_refused(gyro);
   const SweepMotionResult m =
       estimate_sweep_motion(prev->cloud, job.cloud, dt, odometry_T_previous_current, config_.sweep_motion, odometry_previous_sweep, bends);
   {
@@ -496,22 +498,46 @@ std::vector<StampedPose> LoopdEngine::sweep_poses_from_scans(const Job& job) {
 }
 
 SweepBends LoopdEngine::sweep_bends(const Job& job, const Eigen::Isometry3d& odometry_T_previous_current, double dt, bool previous_known,
-                                    bool* by_gyro) const {
+                                    GyroUse* use) const {
   const WindowScan& prev = *job.previous;
   // The gyro's rotations, dead-reckoned at the odometry's speed through this sweep (the path curves as it turns).
   const Eigen::Vector3d body_velocity = odometry_T_previous_current.translation() / dt;
   const std::vector<StampedPose> gyro = integrate_gyro(job.gyro, imu_rotation(config_.imu), config_.imu.max_gap, body_velocity);
-  *by_gyro = !gyro.empty() && gyro.back().utime >= job.input.utime;
-  const double gap = config_.deskew.max_pose_gap;
   SweepBends bends;
-  if (!*by_gyro) return bends;
+  if (gyro.empty() || gyro.back().utime < job.input.utime) return bends;
+  const auto turned = gyro_rotation(gyro, prev.utime, job.input.utime, config_.imu.max_gap);
+  if (!turned) return bends;
+  // A gyro that turned otherwise than the odometry over the sweep (by more than the odometry's step noise, 0.5 deg, and
+  // a quarter of the turn) is mounted otherwise than imu.rpy_deg says, or its clock or axes are wrong: not used.
+  use->gyro_deg = rotation_angle(Eigen::Isometry3d(*turned)) * 180.0 / kPi;
+  use->odometry_deg = rotation_angle(odometry_T_previous_current) * 180.0 / kPi;
+  use->disagreement_deg = Eigen::AngleAxisd(turned->transpose() * odometry_T_previous_current.linear()).angle() * 180.0 / kPi;
+  if (use->disagreement_deg > 0.5 + 0.25 * use->odometry_deg) {
+    use->refused = true;
+    return bends;
+  }
+  use->used = true;
+  const double gap = config_.deskew.max_pose_gap;
   bends.current = SweepBend::from_poses(gyro, job.input.utime, dt, gap);
-  bends.current_rotation = gyro_rotation(gyro, prev.utime, job.input.utime, config_.imu.max_gap);
+  bends.current_rotation = turned;
   if (!previous_known) return bends;
   const double dt_previous = static_cast<double>(prev.utime - job.before_previous.utime) * 1e-6;
   bends.previous = SweepBend::from_poses(gyro, prev.utime, dt_previous, gap);
   bends.previous_rotation = gyro_rotation(gyro, job.before_previous.utime, prev.utime, config_.imu.max_gap);
   return bends;
+}
+
+void LoopdEngine::note_gyro_refused(const GyroUse& use) {
+  std::int64_t refused = 0;
+  {
+    std::lock_guard<std::mutex> s(stats_mutex_);
+    refused = ++stats_.sweeps_gyro_refused;
+  }
+  if (refused == 1 && log_enabled(LogLevel::kWarn))
+    std::fprintf(stderr,
+                 "loopd: WARNING: over a sweep the gyro on IMU turned %.2f deg and the odometry %.2f deg, about axes %.2f deg apart: its "
+                 "mounting (imu.rpy_deg), axes or clock may be wrong; such sweeps are deskewed without it (counted)\n",
+                 use.gyro_deg, use.odometry_deg, use.disagreement_deg);
 }
 
 std::vector<StampedPose> LoopdEngine::bent_sweep_path(const Job& job, const Eigen::Isometry3d& T_previous_current, double dt, const SweepBend& bend) {

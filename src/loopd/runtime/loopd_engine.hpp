@@ -153,6 +153,7 @@ struct EngineStats {
   std::int64_t sweeps_from_odometry = 0;     ///< keyframes that tried and kept the odometry's motion (scans disagreed, did not register)
   std::int64_t sweeps_shape_refined = 0;     ///< of sweeps_from_scans: with more than one turn rate (refine_sweep_shape)
   std::int64_t sweeps_gyro = 0;              ///< of sweeps_from_scans: bent as the gyro turned through the sweep (SweepBend)
+  std::int64_t sweeps_gyro_refused = 0;      ///< sweeps whose gyro turned otherwise than the odometry (mounting, axes, clock): not used
   std::int64_t sweeps_velocity_changed = 0;  ///< of sweeps_from_scans: the previous sweep at its own velocity (the odometry's changed)
   std::string device;
   EngineProfile profile;
@@ -248,9 +249,16 @@ class LoopdEngine {
   std::shared_ptr<const WindowScan> keep_for_submaps(AssociatedScan scan);
   /// The sweep's motion from the job's scan and the one before it, as two poses for deskew() (empty: keep the odometry's).
   std::vector<StampedPose> sweep_poses_from_scans(const Job& job);
+  /// Whether a keyframe's sweep motion used the gyro, or refused it (it turned otherwise than the odometry), and the turns.
+  struct GyroUse {
+    bool used = false, refused = false;
+    double gyro_deg = 0.0, odometry_deg = 0.0, disagreement_deg = 0.0;  ///< the turns, and the angle between the two rotations
+  };
   /// The shapes of the job's sweep and of the one before it off their constant-velocity paths, and their rotations,
-  /// from the gyro (by_gyro); empty without gyro samples over both sweeps.
-  SweepBends sweep_bends(const Job& job, const Eigen::Isometry3d& odometry_T_previous_current, double dt, bool previous_known, bool* by_gyro) const;
+  /// from the gyro; empty without gyro samples over both sweeps, or when the gyro disagrees with the odometry.
+  SweepBends sweep_bends(const Job& job, const Eigen::Isometry3d& odometry_T_previous_current, double dt, bool previous_known, GyroUse* use) const;
+  /// Counts a sweep whose gyro was refused; warns once.
+  void note_gyro_refused(const GyroUse& use);
   /// The path through a keyframe's sweep: the scans' increment bent as the gyro turned.
   static std::vector<StampedPose> bent_sweep_path(const Job& job, const Eigen::Isometry3d& T_previous_current, double dt, const SweepBend& bend);
   /// True when the scan's sweep began before the first of its poses (deskew would extrapolate the motion backwards).
