@@ -178,10 +178,13 @@ class InputHandler {
   DecodeLimits limits_;
 };
 
-/// One pushed message's outcome, counted on its channel: accepted, or rejected by the engine (logged with `why`).
-void count_pushed(InputHandler& h, ChannelCounters& counters, bool accepted, const std::string& why, std::int64_t rejected, int every) {
+/// One pushed message's outcome, counted on its channel: accepted, or rejected by the engine and logged with what
+/// `rejected()` returns (the line and the engine's count so far; built only for a rejection, not per message).
+template <typename Rejected>
+void count_pushed(InputHandler& h, ChannelCounters& counters, bool accepted, int every, const Rejected& rejected) {
   if (!accepted) {
-    log_anomaly(why, rejected, every);
+    const auto [why, count] = rejected();
+    log_anomaly(why, count, every);
     return;
   }
   std::lock_guard<std::mutex> lock(h.counters_mutex_);
@@ -205,23 +208,28 @@ void ingest(LoopdEngine& engine, InputHandler& h, Input& in, const NodeConfig& n
   if (auto* scan = std::get_if<DecodedScan>(&in.msg)) {
     *last_data_utime = std::max(*last_data_utime, scan->utime);
     const bool ok = engine.push_scan(scan->utime, std::move(scan->cloud), in.arrival_s);
-    count_pushed(h, h.scan_, ok,
-                 "rejected a scan at utime " + std::to_string(scan->utime) + ": empty, all non-finite, too large, or duplicate/out-of-order utime",
-                 ok ? 0 : engine.stats().invalid_scans, every);
+    count_pushed(h, h.scan_, ok, every, [&] {
+      return std::make_pair(
+          "rejected a scan at utime " + std::to_string(scan->utime) + ": empty, all non-finite, too large, or duplicate/out-of-order utime",
+          engine.stats().invalid_scans);
+    });
   } else if (auto* pose = std::get_if<pose_t>(&in.msg)) {
     StampedPose p;
     if (!from_message(*pose, &p, &error)) return count_unconvertible(h, h.pose_, "rejected a pose on " + node.pose_channel + ": " + error, every);
     *last_data_utime = std::max(*last_data_utime, pose->utime);
     const bool ok = engine.push_pose(p, in.arrival_s);
-    count_pushed(h, h.pose_, ok, "rejected a pose with a duplicate or out-of-order utime " + std::to_string(pose->utime),
-                 ok ? 0 : engine.stats().invalid_poses, every);
+    count_pushed(h, h.pose_, ok, every, [&] {
+      return std::make_pair("rejected a pose with a duplicate or out-of-order utime " + std::to_string(pose->utime), engine.stats().invalid_poses);
+    });
   } else if (auto* imu = std::get_if<imu_t>(&in.msg)) {
     ImuSample sample;
     if (!from_message(*imu, &sample, &error))
       return count_unconvertible(h, h.imu_, "rejected a gyro sample on " + node.imu_channel + ": " + error, every);
     const bool ok = engine.push_imu(sample);
-    count_pushed(h, h.imu_, ok, "rejected a gyro sample with a duplicate or out-of-order utime " + std::to_string(imu->utime),
-                 ok ? 0 : engine.stats().invalid_imu, every);
+    count_pushed(h, h.imu_, ok, every, [&] {
+      return std::make_pair("rejected a gyro sample with a duplicate or out-of-order utime " + std::to_string(imu->utime),
+                            engine.stats().invalid_imu);
+    });
   }
 }
 

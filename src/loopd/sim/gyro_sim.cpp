@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "loopd/base/angles.hpp"
+#include "loopd/sim/sample_grid.hpp"
 
 namespace loopd {
 namespace {
@@ -28,18 +29,13 @@ std::vector<ImuSample> simulate_gyro(const Drive& drive, const GyroSimConfig& co
   const DriveScan& scan = drive.scans[static_cast<std::size_t>(scan_index)];
   const std::int64_t sweep_us = std::llround(1e6 / drive.config.rate_hz);
   const std::int64_t begin = scan_index > 0 ? drive.scans[static_cast<std::size_t>(scan_index - 1)].utime : scan.utime - sweep_us;
-  const double period_us = 1e6 / config.rate_hz, h = 1.0 / config.rate_hz;
-  const std::int64_t origin = drive.config.start_utime;
+  const double h = 1.0 / config.rate_hz;
   const std::uint64_t seed =
       detail::hash_combine(detail::hash_combine(drive.config.seed, 0x6A1ull), static_cast<std::uint64_t>(drive.config.session));
   Eigen::Vector3d bias;
   for (int a = 0; a < 3; ++a)
     bias[a] = (2.0 * detail::hash_uniform(detail::mix64(seed + static_cast<std::uint64_t>(a))) - 1.0) * config.bias_deg_s * kRadPerDeg;
-  // Grid indices k with begin < origin + k * period <= scan.utime.
-  const auto first = static_cast<std::int64_t>(std::floor(static_cast<double>(begin - origin) / period_us)) + 1;
-  const auto last = static_cast<std::int64_t>(std::floor(static_cast<double>(scan.utime - origin) / period_us));
-  for (std::int64_t k = first; k <= last; ++k) {
-    const std::int64_t utime = origin + std::llround(static_cast<double>(k) * period_us);
+  for (const auto [k, utime] : grid_times(drive.config.start_utime, config.rate_hz, begin, scan.utime)) {
     const double t = static_cast<double>(utime - scan.utime) * 1e-6;  // [s] relative to the scan's stamp
     const Eigen::Isometry3d a = drive.pose_at_distance(scan.route_distance + drive.config.speed * (t - h));
     const Eigen::Isometry3d b = drive.pose_at_distance(scan.route_distance + drive.config.speed * t);
@@ -49,7 +45,7 @@ std::vector<ImuSample> simulate_gyro(const Drive& drive, const GyroSimConfig& co
     s.angular_velocity = turn.axis() * turn.angle() / h + bias;
     const std::uint64_t key = detail::hash_combine(seed, static_cast<std::uint64_t>(k));
     for (int ax = 0; ax < 3; ++ax)
-      s.angular_velocity[ax] += config.noise_deg_s * kRadPerDeg * gaussian(key + static_cast<std::uint64_t>(ax) * 0x9E37ull);
+      s.angular_velocity[ax] += config.noise_deg_s * kRadPerDeg * gaussian(key + static_cast<std::uint64_t>(ax) * std::uint64_t{0x9E37});
     out.push_back(s);
   }
   return out;

@@ -1,6 +1,6 @@
 #include "loopd/sim/odometry_stream.hpp"
 
-#include <cmath>
+#include "loopd/sim/sample_grid.hpp"
 
 namespace loopd {
 
@@ -12,12 +12,9 @@ std::vector<StampedPose> odometry_between_scans(const Drive& drive, int scan_ind
   if (a.odometry_segment != b.odometry_segment) return out;  // the odometry restarted at this scan
   const Eigen::Isometry3d true_step = a.T_world_sensor.inverse() * b.T_world_sensor;
   const Eigen::Isometry3d drift = true_step.inverse() * (a.odometry.T_world_sensor.inverse() * b.odometry.T_world_sensor);
-  const double period_us = 1e6 / rate_hz, step_s = static_cast<double>(b.utime - a.utime) * 1e-6;
-  const std::int64_t origin = drive.config.start_utime;
-  const auto first = static_cast<std::int64_t>(std::floor(static_cast<double>(a.utime - origin) / period_us)) + 1;
-  for (std::int64_t k = first;; ++k) {
-    const std::int64_t utime = origin + std::llround(static_cast<double>(k) * period_us);
-    if (utime >= b.utime) break;
+  const double step_s = static_cast<double>(b.utime - a.utime) * 1e-6;
+  for (const GridTime g : grid_times(drive.config.start_utime, rate_hz, a.utime, b.utime - 1)) {  // strictly between the scans
+    const std::int64_t utime = g.utime;
     const double t = static_cast<double>(utime - a.utime) * 1e-6;  // [s] after scan i - 1
     const Eigen::Isometry3d T_true = drive.pose_at_distance(a.route_distance + drive.config.speed * t);
     const Eigen::Isometry3d moved = a.T_world_sensor.inverse() * T_true;
