@@ -101,20 +101,20 @@ void FleetSync::run() {
       wake_.wait_for(lock, period, [this] { return stopping_; });
       last = stopping_;
     }
-    round();
+    round(last);
   }
   // The last round must reach the server (it may just be back: the store reconnects once a second).
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<std::int64_t>(config_.flush_timeout * 1000.0));
   while (round_errors_ > 0 && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(250));
-    round();
+    round(true);
   }
 }
 
-void FleetSync::round() {
+void FleetSync::round(bool last) {
   round_errors_ = 0;
   read_remote();
-  solve_if_due();
+  solve_if_due(last);
   publish_newest();
 }
 
@@ -135,7 +135,7 @@ void FleetSync::read_remote() {
   for (KeyframeRecord& k : fresh) inbox_.push_back(std::move(k));
 }
 
-void FleetSync::solve_if_due() {
+void FleetSync::solve_if_due(bool last) {
   const StoreResult<bool> held = shared_->hold_solver_lock();
   if (!held.ok()) return error("taking the solver role", held.status);
   {
@@ -148,8 +148,11 @@ void FleetSync::solve_if_due() {
   const StoreResult<FleetCounts> counts = shared_->fleet_counts();
   if (!counts.ok()) return error("counting the map", counts.status);
   if (counts.value.keyframes == 0) return;
+  // Between rounds a few new keyframes wait for the next solve; the last round solves for any new keyframe, so the
+  // final trajectory covers all of them.
+  const std::int64_t solve_every = last ? 1 : config_.solve_every_keyframes;
   if (solved_counts_ && counts.value.loops_accepted == solved_counts_->loops_accepted &&
-      counts.value.keyframes - solved_counts_->keyframes < config_.solve_every_keyframes &&
+      counts.value.keyframes - solved_counts_->keyframes < solve_every &&
       counts.value.newest_revision == solved_counts_->newest_revision)
     return;
   std::vector<JointKeyframe> keyframes;

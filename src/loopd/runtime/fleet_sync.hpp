@@ -62,9 +62,9 @@ class FleetSync {
 
  private:
   void run();
-  void round();
+  void round(bool last = false);  ///< `last`: the round at stop, which solves for any keyframe added since the last solve
   void read_remote();
-  void solve_if_due();
+  void solve_if_due(bool last);
   void publish_newest();
   void error(const std::string& what, const StoreStatus& status);
 
