@@ -244,13 +244,15 @@ TEST_CASE("bag2lcm turns a ROS 1 bag of a simulated drive back into the same dri
   // has no such field: bag2lcm writes 0, "unknown"); the residuals weight the trajectory correction, so the
   // comparison that must be IDENTICAL is with the drive's residuals set to 0. With them, the decisions still agree.
   // loopd deskews the scans with their per-point times, which the bag carries to 1 us: the two runs' transforms then
-  // differ by a few 1e-6 m and deg (2.4e-6 m measured), so IDENTICAL is judged at 1e-5.
+  // differ by a few 1e-6 m (7.4e-6 m measured) and, as this drive turns at hundreds of deg/s in its corners (40 m/s),
+  // where 1 us moves a point's bearing by ~1e-4 deg, by a few 1e-5 deg (6.3e-5 deg measured): IDENTICAL is judged at
+  // 1e-5 m and 1e-4 deg.
   const std::string no_residuals = tmp / "no_residuals.lcmlog";
   write_without_residuals(drive, no_residuals);
   const std::string out_converted = replay(odom_out, tmp / "out_converted.lcmlog");
   const std::string compare = kBin + "/tools/loopd-compare/loopd-compare --json ";
   const nlohmann::json same =
-      run_json(compare + "--tolerance-m 1e-5 --tolerance-deg 1e-5 " + replay(no_residuals, tmp / "out_reference.lcmlog") + " " + out_converted, 0);
+      run_json(compare + "--tolerance-m 1e-5 --tolerance-deg 1e-4 " + replay(no_residuals, tmp / "out_reference.lcmlog") + " " + out_converted, 0);
   CHECK(same.at("identical") == true);
   CHECK(same.at("events_a").get<int>() >= 3);
   CHECK(same.at("accepted_both").get<int>() >= 1);

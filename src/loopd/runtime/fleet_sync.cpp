@@ -152,8 +152,7 @@ void FleetSync::solve_if_due(bool last) {
   // final trajectory covers all of them.
   const std::int64_t solve_every = last ? 1 : config_.solve_every_keyframes;
   if (solved_counts_ && counts.value.loops_accepted == solved_counts_->loops_accepted &&
-      counts.value.keyframes - solved_counts_->keyframes < solve_every &&
-      counts.value.newest_revision == solved_counts_->newest_revision)
+      counts.value.keyframes - solved_counts_->keyframes < solve_every && counts.value.newest_revision == solved_counts_->newest_revision)
     return;
   std::vector<JointKeyframe> keyframes;
   std::vector<JointLoop> loops;

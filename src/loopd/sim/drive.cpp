@@ -31,7 +31,8 @@ class DriveRng {
 };
 
 /// Planar position, heading and visit label `s` [m] into a lap of `path` (any real number: laps repeat): the path
-/// sample at or before it, linear between samples, heading from a 1 m chord around the sample (smooth through corners).
+/// sample at or before it, linear between samples; the heading is a 1 m chord's around each sample, interpolated between
+/// the samples as well (it stepped at each sample before: 0.3-0.6 deg every 5 cm in a corner, a turn no vehicle makes).
 void planar_at(const std::vector<DrivePathPoint>& path, double lap_length, double route_distance, Eigen::Vector2d* p, double* yaw, int* visit) {
   const int lap = static_cast<int>(std::floor(route_distance / lap_length));
   const double s = route_distance - lap * lap_length;
@@ -43,9 +44,12 @@ void planar_at(const std::vector<DrivePathPoint>& path, double lap_length, doubl
   const double alpha = seg > 1e-12 ? std::clamp((s - a.s) / seg, 0.0, 1.0) : 0.0;
   *p = a.p + alpha * (b.p - a.p);
   const std::size_t n = path.size();
-  const std::size_t back = (cursor + n - 10) % n, fwd = (cursor + 11) % n;
-  const Eigen::Vector2d t = path[fwd].p - path[back].p;
-  *yaw = std::atan2(t.y(), t.x());
+  auto chord_yaw = [&](std::size_t c) {
+    const Eigen::Vector2d t = path[(c + 11) % n].p - path[(c + n - 10) % n].p;
+    return std::atan2(t.y(), t.x());
+  };
+  const double yaw_a = chord_yaw(cursor), yaw_b = chord_yaw((cursor + 1) % n);
+  *yaw = yaw_a + alpha * std::remainder(yaw_b - yaw_a, 2.0 * kPi);
   if (visit) *visit = a.visit + kRouteVisitsPerLap * lap;
 }
 
