@@ -76,14 +76,30 @@ std::optional<double> PoseTrack::coverage(double lo, double hi, double max_extra
 }
 
 std::pair<double, double> time_span(const PointCloud& cloud) {
-  float lo = std::numeric_limits<float>::infinity(), hi = -std::numeric_limits<float>::infinity();
-  for (const float t : cloud.time)
-    if (std::isfinite(t)) {
-      lo = std::min(lo, t);
-      hi = std::max(hi, t);
+  // Eight running minima and maxima without a branch (a time that is not finite gives +inf / -inf), so the compiler
+  // vectorises the loop: it runs on every scan.
+  constexpr std::size_t kLanes = 8;
+  constexpr float kInf = std::numeric_limits<float>::infinity(), kMax = std::numeric_limits<float>::max();
+  float lo[kLanes], hi[kLanes];
+  std::fill(lo, lo + kLanes, kInf);
+  std::fill(hi, hi + kLanes, -kInf);
+  const float* t = cloud.time.data();
+  const std::size_t n = cloud.time.size(), whole = n / kLanes * kLanes;
+  for (std::size_t i = 0; i < whole; i += kLanes)
+    for (std::size_t k = 0; k < kLanes; ++k) {
+      const float v = t[i + k];
+      const bool finite = std::abs(v) <= kMax;  // false for NaN and +-inf
+      lo[k] = std::min(lo[k], finite ? v : kInf);
+      hi[k] = std::max(hi[k], finite ? v : -kInf);
     }
-  if (lo > hi) return {0.0, 0.0};
-  return {lo, hi};
+  for (std::size_t i = whole; i < n; ++i) {
+    const bool finite = std::abs(t[i]) <= kMax;
+    lo[0] = std::min(lo[0], finite ? t[i] : kInf);
+    hi[0] = std::max(hi[0], finite ? t[i] : -kInf);
+  }
+  const float first = *std::min_element(lo, lo + kLanes), last = *std::max_element(hi, hi + kLanes);
+  if (first > last) return {0.0, 0.0};
+  return {first, last};
 }
 
 namespace {

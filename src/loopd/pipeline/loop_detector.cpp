@@ -40,7 +40,7 @@ LoopDetector::LoopDetector(const LoopDetectorConfig& config)
 
 LoopDetector::~LoopDetector() = default;
 
-KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan, const SensorEstimate* measured_layout) const {
+KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan, const SensorEstimate* measured_layout, bool check_layout) const {
   KeyframeFeatures f;
   f.input_points = scan.size();
   std::size_t removed = 0;
@@ -69,14 +69,16 @@ KeyframeFeatures LoopDetector::compute_features(const PointCloud& scan, const Se
   f.scene_scale = static_cast<float>(scene_scale(clean));
   SensorEstimate seen;
   const LidarModel* model = nullptr;
-  if (model_ && measured_layout != nullptr) {
-    seen = *measured_layout;
+  if (model_ && (measured_layout != nullptr || !check_layout)) {
+    if (measured_layout) seen = *measured_layout;
     model = &*model_;
   } else {
     model = model_for_scan(model_, clean, &seen);
   }
-  f.sensor_layout = seen.describe();
-  if (model_) f.sensor_mismatch = preset_mismatch(*model_, seen).value_or("");
+  if (!model_ || measured_layout != nullptr || check_layout) {
+    f.sensor_layout = seen.describe();
+    if (model_) f.sensor_mismatch = preset_mismatch(*model_, seen).value_or("");
+  }
   f.prepared = prepare_scan(clean, model, config_.prepare);
   f.ms_prepare = sw.ms();
   f.ok = true;

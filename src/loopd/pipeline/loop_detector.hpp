@@ -142,7 +142,9 @@ class LoopDetector {
   ///        scan as measured), used with a sensor preset for the layout note and the preset check: deskewed, a point's
   ///        elevation is seen from the sensor at the stamp, not from where it was measured, and the near rings spread
   ///        by degrees. Null: both come from `scan`. The preset, not the layout, is what the scan is prepared with.
-  KeyframeFeatures compute_features(const PointCloud& scan, const SensorEstimate* measured_layout = nullptr) const;
+  /// @param check_layout false: with a preset, the layout is not read at all (no note, no preset check; the features
+  ///        are the same). Without a preset the layout is the model, read from every scan.
+  KeyframeFeatures compute_features(const PointCloud& scan, const SensorEstimate* measured_layout = nullptr, bool check_layout = true) const;
   /// @brief A sensor preset is fixed (not "auto"): the scan's layout is only checked against it.
   bool has_sensor_preset() const { return model_.has_value(); }
   /// @brief Adds a keyframe. `features` may be null when the keyframe was shed under load: its pose still

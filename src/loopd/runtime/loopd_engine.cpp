@@ -365,14 +365,19 @@ void LoopdEngine::worker_loop() {
     // With a preset, the layout it is checked against is read before deskew moves the points (not an extra cost: the
     // detector then reads none from the deskewed scan).
     const Stopwatch layout_sw;
+    // With a preset the layout is only checked against it: on the first keyframes and every tenth after them (a
+    // sensor swapped mid-run is counted on ingest; its layout shows within ten keyframes).
+    const std::int64_t layout_turn = layout_checks_.fetch_add(1);
+    const bool check_layout = layout_turn < kLayoutCheckedFirst || layout_turn % kLayoutCheckEvery == 0;
     std::optional<SensorEstimate> measured_layout;
-    if (detector_.has_sensor_preset() && config_.deskew.enabled && job.cloud.has_time()) measured_layout = estimate_sensor(job.cloud);
+    if (check_layout && detector_.has_sensor_preset() && config_.deskew.enabled && job.cloud.has_time()) measured_layout = estimate_sensor(job.cloud);
     const double layout_ms = layout_sw.ms();  // the features' work (the profile's "prepare"), done before deskew
     const double sweep_motion_ms = deskew_scan(job);
     merge_submap_scans(job);
     const double deskew_ms = sw.ms() - sweep_motion_ms - layout_ms;
     sw.reset();
-    auto features = std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud, measured_layout ? &*measured_layout : nullptr));
+    auto features =
+        std::make_shared<KeyframeFeatures>(detector_.compute_features(job.cloud, measured_layout ? &*measured_layout : nullptr, check_layout));
     note_sensor(*features);
     const double features_ms = sw.ms() + layout_ms;
     sw.reset();

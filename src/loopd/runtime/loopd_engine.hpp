@@ -326,8 +326,11 @@ class LoopdEngine {
   std::shared_ptr<const WindowScan> previous_scan_;  ///< (ingest thread) the last scan with per-point times (deskew_from_scans)
   std::deque<ImuSample> imu_;                        ///< (ingest thread) the last second of gyro samples
   mutable std::mutex stats_mutex_;
-  std::string sensor_logged_;  ///< (under stats_mutex_) the last logged sensor layout's rings or rows
-  int sensor_notes_ = 0;       ///< (under stats_mutex_) layout notes logged
+  std::string sensor_logged_;                              ///< (under stats_mutex_) the last logged sensor layout's rings or rows
+  int sensor_notes_ = 0;                                   ///< (under stats_mutex_) layout notes logged
+  static constexpr std::int64_t kLayoutCheckedFirst = 20;  ///< keyframes whose layout is always checked (with a preset)
+  static constexpr std::int64_t kLayoutCheckEvery = 10;    ///< then every this many
+  std::atomic<std::int64_t> layout_checks_{0};             ///< keyframes the workers started (turns of the layout check)
   bool sensor_mismatch_logged_ = false;
   EngineStats stats_;
   Eigen::Isometry3d T_map_odom_ = Eigen::Isometry3d::Identity();
