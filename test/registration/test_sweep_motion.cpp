@@ -130,10 +130,10 @@ TEST_CASE("the scans give back a sweep's motion that noisy odometry got wrong", 
   CHECK_FALSE(r.shape_refined);
   const Eigen::Isometry3d error = s.T_previous_current.inverse() * r.T_previous_current;
   const Eigen::Isometry3d odometry_error = s.T_previous_current.inverse() * odometry;
-  CAPTURE(error.translation().transpose(), rotation_deg(error), r.degeneracy, r.fitness, r.rotation_only);
+  CAPTURE(error.translation().transpose(), rotation_deg(error), r.degeneracy, r.fitness, r.weak_direction_from_odometry);
   CHECK(rotation_deg(odometry_error) == Approx(0.3).margin(1e-6));
   CHECK(rotation_deg(error) < 0.03);  // 10x better than the odometry's
-  if (!r.rotation_only) CHECK(error.translation().norm() < 0.02);
+  if (!r.weak_direction_from_odometry) CHECK(error.translation().norm() < 0.02);
   CHECK(r.rotation_change_deg == Approx(0.3).margin(0.03));
 
   // Deskewed with it, the sweep lies on the scan seen standing still at the stamp closer than with the odometry's.
@@ -196,6 +196,37 @@ TEST_CASE("the sweep's motion keeps the odometry's where the scans cannot say or
   r = loopd::estimate_sweep_motion(s.previous, s.current, kPeriod, odometry, bad);
   CHECK_FALSE(r.refined);
   CHECK(r.reason.find("voxel_size") != std::string::npos);
+}
+
+TEST_CASE("a degenerate registration keeps the odometry's translation along its weakest direction only", "[registration][sweep_motion]") {
+  const TwoSweeps s = make_sweeps();
+  const Eigen::Isometry3d odometry = noisy(s.T_previous_current);  // 8 cm off
+  loopd::SweepMotionConfig one_rate;
+  one_rate.shape.segments = 0;
+  const loopd::SweepMotionResult free = loopd::estimate_sweep_motion(s.previous, s.current, kPeriod, odometry, one_rate);
+  REQUIRE(free.refined);
+  REQUIRE_FALSE(free.weak_direction_from_odometry);
+  // The same registration judged degenerate (any condition number above 1 is, here).
+  loopd::SweepMotionConfig strict = one_rate;
+  strict.max_degeneracy = 1.0;
+  const loopd::SweepMotionResult r = loopd::estimate_sweep_motion(s.previous, s.current, kPeriod, odometry, strict);
+  INFO(r.reason);
+  REQUIRE(r.refined);
+  REQUIRE(r.weak_direction_from_odometry);
+  CHECK_FALSE(r.translation_from_odometry);
+  const Eigen::Vector3d d = r.weak_direction;
+  CHECK(d.norm() == Approx(1.0).margin(1e-9));
+  const Eigen::Vector3d t = r.T_previous_current.translation(), t_free = free.T_previous_current.translation();
+  const Eigen::Vector3d t_odometry = odometry.translation(), t_true = s.T_previous_current.translation();
+  CAPTURE(d.transpose(), t.transpose(), t_free.transpose(), t_odometry.transpose(), t_true.transpose(), r.degeneracy);
+  // Along d the odometry's, across it the scans' (to the micrometre), and the rotation the scans' either way.
+  CHECK(std::abs(d.dot(t - t_odometry)) < 1e-9);
+  CHECK(((t - t_free) - d * d.dot(t - t_free)).norm() < 1e-9);
+  CHECK(loopd::rotation_angle(free.T_previous_current.inverse() * r.T_previous_current) < 1e-12);
+  // So it lies nearer the truth than the odometry's: only the odometry's error along d is left.
+  const Eigen::Vector3d odometry_error = t_odometry - t_true;
+  CHECK((t - t_true).norm() < odometry_error.norm());
+  CHECK((t - t_true).norm() == Approx(std::abs(d.dot(odometry_error))).margin(0.02));
 }
 
 TEST_CASE("at a turn's onset the previous sweep is deskewed at its own turn rate from the odometry", "[registration][sweep_motion]") {

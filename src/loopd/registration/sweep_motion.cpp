@@ -180,6 +180,7 @@ SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointC
   Eigen::Isometry3d T = odometry_T_previous_current;
   if (bends.current_rotation) T.linear() = *bends.current_rotation;
   std::vector<Eigen::Vector3f> source, source_normals, target, target_normals;
+  Eigen::Vector3d weakest = Eigen::Vector3d::Zero();
   for (int round = 0; round < config.rounds; ++round) {
     deskew(cur, T, dt, true, &source, &source_normals, std::nullopt, bends.current);
     deskew(prev, T, dt, false, &target, &target_normals,
@@ -190,11 +191,23 @@ SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointC
     r.degeneracy = g.degeneracy;
     if (!g.converged) return give_up("GICP did not converge: " + g.reason);
     T = g.T_target_source;
+    weakest = g.weakest_direction;
   }
-  // A direction the scans do not fix (a straight street seen by 16 rings: GICP slides along it): their rotation still
-  // holds, the odometry's translation is kept.
-  r.rotation_only = !(r.degeneracy >= 1.0 && r.degeneracy <= config.max_degeneracy);
-  if (r.rotation_only) T.translation() = odometry_T_previous_current.translation();
+  // A direction the scans do not fix (a straight street seen by 16 rings, a tunnel: GICP slides along it): the
+  // translation along that direction (the Hessian's weakest) is the odometry's, the rest the scans'. Their rotation
+  // holds either way. (Solution remapping, Zhang, Kaess & Singh 2016: only the degenerate direction is replaced.)
+  const bool degenerate = !(r.degeneracy >= 1.0 && r.degeneracy <= config.max_degeneracy);
+  if (degenerate) {
+    const Eigen::Vector3d d = T.linear() * weakest;  // the right perturbation's direction, in the previous stamp's frame
+    if (std::isfinite(r.degeneracy) && d.allFinite() && d.norm() > 0.5) {
+      r.weak_direction = d.normalized();
+      r.weak_direction_from_odometry = true;
+      T.translation() += r.weak_direction * r.weak_direction.dot(odometry_T_previous_current.translation() - T.translation());
+    } else {  // no direction to keep (no information at all): the odometry's translation
+      r.translation_from_odometry = true;
+      T.translation() = odometry_T_previous_current.translation();
+    }
+  }
   r.translation_change = (T.translation() - odometry_T_previous_current.translation()).norm();
   r.rotation_change_deg = rotation_angle(odometry_T_previous_current.inverse() * T) * 180.0 / kPi;
   if (r.fitness < config.min_fitness) return give_up("GICP fitness " + std::to_string(r.fitness) + " below " + std::to_string(config.min_fitness));
@@ -205,7 +218,7 @@ SweepMotionResult estimate_sweep_motion(const PointCloud& previous, const PointC
   r.refined = true;
   const bool rate_changed = rate_change_deg >= config.shape.min_rate_change_deg;  // never when unknown (-1 < 0 <= min)
   r.bent = !bends.current.empty();
-  if (!r.bent && !r.rotation_only && config.shape.segments > 0 && rate_changed)
+  if (!r.bent && !degenerate && config.shape.segments > 0 && rate_changed)
     refine_shape(cur, prev, T, dt, change ? previous_velocity(T) : std::nullopt, config, &r);
   r.ms = sw.ms();
   return r;

@@ -33,9 +33,9 @@ struct SweepMotionConfig {
   double max_translation_change = 0.5;
   double max_rotation_change_deg = 3.0;
   double min_fitness = 0.5;
-  /// Above this translational condition number of the registration (gicp_degeneracy) only the scans' rotation is
-  /// taken, the odometry's translation kept: a translation error moves a point by itself, a rotation error by itself
-  /// times the range, so the rotation is what deskew needs most.
+  /// Above this translational condition number of the registration (gicp_degeneracy) the translation along its
+  /// weakest direction is the odometry's (across it, and the rotation, the scans'): a tunnel, or a straight street
+  /// seen by few rings, does not fix where along it the sensor went.
   double max_degeneracy = 10.0;
   /// The previous sweep is deskewed at the velocity being estimated unless the odometry's rotations over the two
   /// sweeps differ by more than this (a turn's onset or end); then at that velocity with the odometry's rotation over
@@ -78,11 +78,15 @@ struct SweepMotionResult {
   double translation_change = 0.0;                                       ///< [m] from the odometry's increment
   double rotation_change_deg = 0.0;                                      ///< [deg]
   double fitness = 0.0;
-  bool rotation_only = false;     ///< refined, but the translation is the odometry's (degenerate registration)
-  bool velocity_changed = false;  ///< the previous sweep was deskewed at its own velocity (the odometry's changed)
-  bool bent = false;              ///< the current sweep's path is the scans' increment bent as the gyro turned (bends.current)
-  double degeneracy = -1.0;       ///< gicp_degeneracy of the last registration (large: a direction the scans do not fix)
-  int iterations = 0;             ///< GICP iterations over all rounds
+  /// Degenerate registration (degeneracy above max_degeneracy): the translation along `weak_direction` is the
+  /// odometry's, across it the scans'.
+  bool weak_direction_from_odometry = false;
+  Eigen::Vector3d weak_direction = Eigen::Vector3d::Zero();  ///< unit, in the previous stamp's frame (when the above)
+  bool translation_from_odometry = false;                    ///< degenerate without a usable direction: all of it
+  bool velocity_changed = false;                             ///< the previous sweep was deskewed at its own velocity (the odometry's changed)
+  bool bent = false;         ///< the current sweep's path is the scans' increment bent as the gyro turned (bends.current)
+  double degeneracy = -1.0;  ///< gicp_degeneracy of the last registration (large: a direction the scans do not fix)
+  int iterations = 0;        ///< GICP iterations over all rounds
   /// The path through the current sweep with more than one turn rate (refine_sweep_shape), when shape_refined:
   /// knot times [s] relative to the current stamp and the sensor's pose there in the previous stamp's frame.
   bool shape_refined = false;

@@ -20,6 +20,7 @@ void bind(Binder& b, EngineConfig& e) {
   b.field("deskew.sweep_motion.max_input_points", e.sweep_motion.max_input_points);
   b.field("deskew.sweep_motion.rounds", e.sweep_motion.rounds);
   b.field("deskew.sweep_motion.max_source_points", e.sweep_motion.gicp.max_source_points);
+  b.field("deskew.sweep_motion.max_degeneracy", e.sweep_motion.max_degeneracy);
   b.field("deskew.sweep_motion.shape.segments", e.sweep_motion.shape.segments);
   b.field("deskew.sweep_motion.shape.yaw_only", e.sweep_motion.shape.yaw_only);
   b.field("deskew.sweep_motion.shape.min_rate_change_deg", e.sweep_motion.shape.min_rate_change_deg);
