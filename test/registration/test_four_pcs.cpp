@@ -1,5 +1,6 @@
 // Plane-based 4PCS (Vlaminck 2019, Sec. 4.2) on simulated revisits of the procedural town: any heading, 2 m offset,
 // parked cars moved between the visits.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <random>
@@ -7,6 +8,7 @@
 #include "loopd/base/lidar_model.hpp"
 #include "loopd/base/pose.hpp"
 #include "loopd/pipeline/register_scans.hpp"
+#include "loopd/registration/radius_grid.hpp"
 #include "loopd/sim/lidar_sim.hpp"
 #include "loopd/sim/town.hpp"
 
@@ -180,4 +182,42 @@ TEST_CASE("degenerate input returns no alignment with a reason") {
     CHECK_FALSE(r.success);
     CHECK_FALSE(r.reason.empty());
   }
+}
+
+TEST_CASE("RadiusGrid returns exactly the points within the radius, wherever they lie", "[four_pcs][radius_grid]") {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> near(-3.f, 3.f), cell(0.f, 1.f);
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 3000; ++i) pts.emplace_back(near(rng), near(rng), 0.2f * near(rng));
+  // On cell boundaries (multiples of the radius), exactly at the radius from a query, and far away (keys that wrap).
+  for (int i = -6; i <= 6; ++i) pts.emplace_back(0.5f * static_cast<float>(i), 0.5f, -0.5f);
+  pts.emplace_back(0.5f, 0.f, 0.f);
+  pts.emplace_back(1.0e6f, -2.0e6f, 3.0f);
+  pts.emplace_back(1.0e6f + 0.1f, -2.0e6f, 3.0f);
+  pts.emplace_back(-1048576.f, 0.f, 0.f);  // 2^21 cells from the origin: the same key as the origin's cell
+  const float radius = 0.5f;
+  const RadiusGrid grid(pts, radius);
+  std::vector<Eigen::Vector3f> queries = {Eigen::Vector3f::Zero(), {1.0e6f, -2.0e6f, 3.0f}, {0.25f, 0.5f, -0.5f}, {-0.5f, 0.5f, -0.5f}};
+  for (int i = 0; i < 500; ++i) queries.emplace_back(near(rng) + cell(rng), near(rng), 0.2f * near(rng));
+  std::size_t total = 0;
+  for (const Eigen::Vector3f& q : queries) {
+    std::vector<int> got;
+    grid.within(q, &got);
+    std::sort(got.begin(), got.end());
+    std::vector<int> want;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      const Eigen::Vector3f d = q - pts[i];
+      float d2 = 0.f;
+      d2 += d.x() * d.x();
+      d2 += d.y() * d.y();
+      d2 += d.z() * d.z();
+      if (d2 < radius * radius) want.push_back(static_cast<int>(i));
+    }
+    REQUIRE(got == want);
+    total += got.size();
+  }
+  CHECK(total > 5000);  // the queries land among the points, not beside them
+  std::vector<int> none;
+  RadiusGrid(std::vector<Eigen::Vector3f>{}, radius).within(Eigen::Vector3f::Zero(), &none);
+  CHECK(none.empty());
 }

@@ -19,6 +19,7 @@
 
 #include "loopd/base/stopwatch.hpp"
 #include "loopd/base/angles.hpp"
+#include "loopd/registration/radius_grid.hpp"
 
 namespace loopd {
 namespace {
@@ -30,9 +31,9 @@ constexpr int kCheckEvery = 16;              // early-termination check period [
 
 inline double deg2rad(double d) { return d * kPi / 180.0; }
 
-// k-d tree (nanoflann, like base/kdtree.hpp) with the three searches 4PCS needs, without per-query allocation:
-// radius (coincident intermediate points, Sec. 4.2.2), "any point within delta?" for the LCP test (Sec. 4.2.3; the
-// search stops at the first point inside the ball) and nearest-within-radius for the refinement.
+// k-d tree (nanoflann, like base/kdtree.hpp) with the two searches of the LCP, without per-query allocation: "any
+// point within delta?" for the LCP test (Sec. 4.2.3; the search stops at the first point inside the ball) and
+// nearest-within-radius for the refinement. Coincident intermediate points (Sec. 4.2.2) are found by a RadiusGrid.
 class PointTree {
  public:
   explicit PointTree(const std::vector<Eigen::Vector3f>& pts) : adaptor_{&pts}, tree_(3, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(10)) {
@@ -43,12 +44,6 @@ class PointTree {
     AnyWithin rs{radius_sq, false};
     tree_.findNeighbors(rs, q.data(), nanoflann::SearchParams());
     return rs.found;
-  }
-  /// Indices of all points within sqrt(radius_sq), appended to `out` (unsorted).
-  void radius(const Eigen::Vector3f& q, float radius_sq, std::vector<int>* out) const {
-    if (adaptor_.pts->empty()) return;
-    Collect rs{radius_sq, out};
-    tree_.findNeighbors(rs, q.data(), nanoflann::SearchParams());
   }
   /// Nearest point within sqrt(radius_sq); -1 if none.
   int nearest_within(const Eigen::Vector3f& q, float radius_sq) const {
@@ -76,16 +71,6 @@ class PointTree {
     bool addPoint(float dist, std::uint32_t) {
       if (dist < radius_sq) found = true;
       return !found;  // false stops the search
-    }
-  };
-  struct Collect {
-    float radius_sq;
-    std::vector<int>* out;
-    bool full() const { return true; }
-    float worstDist() const { return radius_sq; }
-    bool addPoint(float dist, std::uint32_t i) {
-      if (dist < radius_sq) out->push_back(static_cast<int>(i));
-      return true;
     }
   };
   struct NearestWithin {
@@ -499,10 +484,11 @@ struct RigidCheck {
 
 // Buffers of the per-base search, reused from base to base.
 struct BaseScratch {
-  std::vector<Eigen::Vector3f> e2;           // intermediate points of the second diagonal
-  std::vector<std::pair<int, int>> e2_pair;  // the oriented pool pair of each e2
-  std::vector<int> hits;                     // e2 indices near one e1
-  std::vector<Candidate> cands;              // congruent sets of the base
+  std::vector<Eigen::Vector3f> e2;                // intermediate points of the second diagonal
+  std::vector<std::pair<int, int>> e2_pair;       // the oriented pool pair of each e2
+  std::vector<int> hits;                          // e2 indices near one e1
+  std::vector<std::pair<int, Candidate>> passed;  // the hits that make a congruent set, with their e2 index
+  std::vector<Candidate> cands;                   // congruent sets of the base
 };
 
 // Intermediate points of the second diagonal, Eq. (2) with r2, both orientations of each pair.
@@ -530,7 +516,7 @@ void second_diagonal_points(const DiagonalChecks& chk, BaseScratch* s) {
 // Congruent sets whose first diagonal is the oriented pool pair (i, j) of length `dist`: its intermediate point e1
 // (Eq. 2 with r1) coincides with an e2, the rigid check holds and the 4 points lie on the pair's plane. Appends to
 // s->cands, at most up to max_congruent_sets_per_base.
-void congruent_sets_on_pair(int i, int j, float dist, const DiagonalChecks& chk, const RigidCheck& rigid, const PointTree& e2_tree,
+void congruent_sets_on_pair(int i, int j, float dist, const DiagonalChecks& chk, const RigidCheck& rigid, const RadiusGrid& e2_grid,
                             const FourPcsConfig& cfg, BaseScratch* s) {
   const Base& base = chk.base;
   const std::vector<PoolPoint>& pool = chk.target.pool;
@@ -540,8 +526,8 @@ void congruent_sets_on_pair(int i, int j, float dist, const DiagonalChecks& chk,
   if (!chk.dz_ok(a, b, chk.dz1, base.len1)) return;
   const Eigen::Vector3f e1 = a + base.r1 * (b - a);
   s->hits.clear();
-  e2_tree.radius(e1, chk.tol.e_tol * chk.tol.e_tol, &s->hits);
-  std::sort(s->hits.begin(), s->hits.end());
+  e2_grid.within(e1, &s->hits);
+  s->passed.clear();
   const Eigen::Vector3f u = (b - a) / dist;
   const Eigen::Vector4f& plane = chk.target.seg.clusters[static_cast<std::size_t>(pool[static_cast<std::size_t>(i)].cluster)].plane;
   for (int h : s->hits) {
@@ -557,8 +543,12 @@ void congruent_sets_on_pair(int i, int j, float dist, const DiagonalChecks& chk,
       continue;
     if (std::abs(plane.head<3>().dot(c) + plane.w()) > cop || std::abs(plane.head<3>().dot(d) + plane.w()) > cop) continue;
     const float err = std::abs(dist - base.len1) + std::abs(cd.norm() - base.len2) + (e1 - s->e2[static_cast<std::size_t>(h)]).norm();
-    const Candidate cand{{i, j, k, l}, Eigen::Isometry3d::Identity(), err};
-    s->cands.push_back(cand);
+    s->passed.push_back({h, Candidate{{i, j, k, l}, Eigen::Isometry3d::Identity(), err}});
+  }
+  // In the order of the second diagonal's points (the cap below keeps the same ones whatever the search's order).
+  std::sort(s->passed.begin(), s->passed.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  for (const auto& hit : s->passed) {
+    s->cands.push_back(hit.second);
     if (static_cast<int>(s->cands.size()) >= cfg.max_congruent_sets_per_base) return;
   }
 }
@@ -566,7 +556,7 @@ void congruent_sets_on_pair(int i, int j, float dist, const DiagonalChecks& chk,
 // Intermediate points of the first diagonal with r1; coincident e1/e2 + rigid check = congruent set. Pairs in length
 // order, both orientations, until max_congruent_sets_per_base.
 void congruent_sets_of_base(const DiagonalChecks& chk, const FourPcsConfig& cfg, BaseScratch* s) {
-  const PointTree e2_tree(s->e2);
+  const RadiusGrid e2_grid(s->e2, chk.tol.e_tol);
   s->cands.clear();
   const auto r1 = chk.pairs_of_length(chk.base.len1);
   const RigidCheck rigid(chk.base, chk.tol);
@@ -574,7 +564,7 @@ void congruent_sets_of_base(const DiagonalChecks& chk, const FourPcsConfig& cfg,
     if (!chk.tilt_ok(it->i)) continue;
     for (int orient = 0; orient < 2; ++orient) {
       const int i = orient == 0 ? it->i : it->j, j = orient == 0 ? it->j : it->i;
-      congruent_sets_on_pair(i, j, it->dist, chk, rigid, e2_tree, cfg, s);
+      congruent_sets_on_pair(i, j, it->dist, chk, rigid, e2_grid, cfg, s);
       if (static_cast<int>(s->cands.size()) >= cfg.max_congruent_sets_per_base) break;
     }
   }
