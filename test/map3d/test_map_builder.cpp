@@ -1,12 +1,16 @@
 // Map building: keyframe clouds merged through the occupancy octree at their poses. What a later scan sees through
 // (an object that left) is dropped; static surfaces, the ground seen at grazing angles included, stay.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <map>
+#include <random>
 #include <unistd.h>
 
 #include "loopd/base/cloud_ops.hpp"
+#include "loopd/map3d/key_sort.hpp"
 #include "loopd/map3d/map_builder.hpp"
 #include "loopd/map3d/occupancy_map.hpp"
 
@@ -119,4 +123,20 @@ TEST_CASE("map builder: keyframes without a map cloud are counted and left out, 
   MapBuildConfig bad;
   bad.voxel = 0.0;
   CHECK(bad.validate().value_or("").find("voxel") != std::string::npos);
+}
+
+TEST_CASE("map builder: ray keys are sorted and made unique as std::sort and std::unique do, at every size") {
+  std::mt19937_64 rng(11);
+  for (std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{4095}, std::size_t{4096}, std::size_t{300000}}) {
+    std::vector<std::uint64_t> keys(n);
+    // Repeats (a narrow range of keys) and all three 16-bit coordinates in use, the largest included.
+    for (auto& k : keys) k = (rng() % 2 == 0) ? (rng() & ((std::uint64_t{1} << 48) - 1)) : (0xFFFF00000000ull | (rng() % 5000));
+    if (n > 2) keys[0] = keys[n - 1] = (std::uint64_t{1} << 48) - 1;
+    std::vector<std::uint64_t> want = keys;
+    std::sort(want.begin(), want.end());
+    want.erase(std::unique(want.begin(), want.end()), want.end());
+    sort_unique_keys(&keys);
+    INFO("n = " << n);
+    CHECK(keys == want);
+  }
 }

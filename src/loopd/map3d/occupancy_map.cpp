@@ -8,6 +8,8 @@
 #include <iterator>
 #include <fstream>
 
+#include "loopd/map3d/key_sort.hpp"
+
 namespace loopd {
 
 std::optional<std::string> OccupancyMapConfig::validate() const {
@@ -41,7 +43,7 @@ octomap::OcTreeKey unpacked(std::uint64_t v) {
 }
 /// A direct-mapped cache of the leaf keys met last: the rays of one scan share their leaves near the sensor, so most
 /// keys repeat within a few rays, and sorting every repeat away took 45 % of a map export. Dropping a key that the
-/// cache still holds loses nothing: sort_unique() after it would remove it anyway (a repeat the cache forgot is
+/// cache still holds loses nothing: sort_unique_keys() after it would remove it anyway (a repeat the cache forgot is
 /// removed there), so the set of keys, and the map, are the same.
 class RecentKeys {
  public:
@@ -59,11 +61,6 @@ class RecentKeys {
   static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // no packed key: a key_type is 16 bits, packed into 48
   std::vector<std::uint64_t> slots_;
 };
-
-void sort_unique(std::vector<std::uint64_t>* v) {
-  std::sort(v->begin(), v->end());
-  v->erase(std::unique(v->begin(), v->end()), v->end());
-}
 
 /// Appends the sorted `part` to the sorted `*all`, keeping it sorted (each thread's keys are sorted once, not again).
 void merge_sorted(const std::vector<std::uint64_t>& part, std::vector<std::uint64_t>* all) {
@@ -104,8 +101,8 @@ void OccupancyMap::insert_scan(const PointCloud& cloud_world, const Eigen::Vecto
           if (recent.first_time(key)) my_misses.push_back(key);
         }
     }
-    sort_unique(&my_hits);
-    sort_unique(&my_misses);
+    sort_unique_keys(&my_hits);
+    sort_unique_keys(&my_misses);
 #pragma omp critical
     {
       merge_sorted(my_hits, &hits);
