@@ -73,6 +73,12 @@ class VoxelKeyTable {
     return static_cast<std::uint32_t>(size_++);
   }
 
+  /// @brief Index of `key`, or -1 when the table does not hold it (nothing is inserted).
+  std::int64_t find(std::uint64_t key) const {
+    const std::size_t h = probe(key);
+    return slot_key_[h] == kEmpty ? -1 : static_cast<std::int64_t>(slot_index_[h]);
+  }
+
   /// @brief Keys held.
   std::size_t size() const { return size_; }
   /// @brief Slots of the table (a power of two).

@@ -15,46 +15,31 @@ std::int64_t cell_index(float v) {
   return static_cast<std::int64_t>(std::max(-1e9f, std::min(1e9f, c)));  // NaN-free input; the clamp keeps the cast defined
 }
 
-// Fibonacci hashing: the product's top bits depend on every bit of the key (its low bits only on the key's low bits).
-std::size_t slot_of(std::int64_t key, int table_bits) {
-  return static_cast<std::size_t>((static_cast<std::uint64_t>(key) * 0x9E3779B97F4A7C15ull) >> (64 - table_bits));
-}
-
 }  // namespace
 
-std::int64_t RadiusGrid::cell_of(float x, float y, float z) const {
-  return ((cell_index(x * inv_cell_) & kMask) << (2 * kBits)) | ((cell_index(y * inv_cell_) & kMask) << kBits) | (cell_index(z * inv_cell_) & kMask);
+std::uint64_t RadiusGrid::cell_of(float x, float y, float z) const {
+  return static_cast<std::uint64_t>(((cell_index(x * inv_cell_) & kMask) << (2 * kBits)) | ((cell_index(y * inv_cell_) & kMask) << kBits) |
+                                    (cell_index(z * inv_cell_) & kMask));
 }
 
 RadiusGrid::RadiusGrid(const std::vector<Eigen::Vector3f>& points, float radius)
-    : points_(points), radius_sq_(radius * radius), inv_cell_(1.f / radius) {
-  std::vector<std::pair<std::int64_t, int>> keyed(points.size());
+    : points_(points), radius_sq_(radius * radius), inv_cell_(1.f / radius), table_(2 * points.size()) {
+  std::vector<std::pair<std::uint64_t, int>> keyed(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) keyed[i] = {cell_of(points[i].x(), points[i].y(), points[i].z()), static_cast<int>(i)};
   std::sort(keyed.begin(), keyed.end());
   order_.resize(keyed.size());
   for (std::size_t i = 0; i < keyed.size(); ++i) {
     order_[i] = keyed[i].second;
-    if (cells_.empty() || cells_.back().key != keyed[i].first) cells_.push_back({keyed[i].first, static_cast<int>(i), static_cast<int>(i)});
+    bool new_cell = false;
+    table_.find_or_insert(keyed[i].first, &new_cell);  // cells are met in key order: a new key is cells_.size()
+    if (new_cell) cells_.push_back({static_cast<int>(i), static_cast<int>(i)});
     ++cells_.back().end;
-  }
-  table_bits_ = 4;
-  while ((std::size_t{1} << table_bits_) < 2 * cells_.size()) ++table_bits_;
-  const std::size_t size = std::size_t{1} << table_bits_;
-  slots_.assign(size, -1);
-  for (std::size_t c = 0; c < cells_.size(); ++c) {
-    std::size_t s = slot_of(cells_[c].key, table_bits_);
-    while (slots_[s] >= 0) s = (s + 1) & (size - 1);
-    slots_[s] = static_cast<int>(c);
   }
 }
 
-const RadiusGrid::Cell* RadiusGrid::find(std::int64_t key) const {
-  const std::size_t mask = slots_.size() - 1;
-  for (std::size_t s = slot_of(key, table_bits_);; s = (s + 1) & mask) {
-    const int c = slots_[s];
-    if (c < 0) return nullptr;
-    if (cells_[static_cast<std::size_t>(c)].key == key) return &cells_[static_cast<std::size_t>(c)];
-  }
+const RadiusGrid::Cell* RadiusGrid::find(std::uint64_t key) const {
+  const std::int64_t c = table_.find(key);
+  return c < 0 ? nullptr : &cells_[static_cast<std::size_t>(c)];
 }
 
 void RadiusGrid::within(const Eigen::Vector3f& q, std::vector<int>* out) const {
@@ -67,7 +52,7 @@ void RadiusGrid::within(const Eigen::Vector3f& q, std::vector<int>* out) const {
   for (std::int64_t x = x0; x <= x1; ++x)
     for (std::int64_t y = y0; y <= y1; ++y)
       for (std::int64_t z = z0; z <= z1; ++z) {
-        const Cell* cell = find(((x & kMask) << (2 * kBits)) | ((y & kMask) << kBits) | (z & kMask));
+        const Cell* cell = find(static_cast<std::uint64_t>(((x & kMask) << (2 * kBits)) | ((y & kMask) << kBits) | (z & kMask)));
         if (cell == nullptr) continue;
         for (int k = cell->begin; k < cell->end; ++k) {
           const int i = order_[static_cast<std::size_t>(k)];

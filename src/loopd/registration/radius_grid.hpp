@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "loopd/base/voxel_grid.hpp"
+
 namespace loopd {
 
 class RadiusGrid {
@@ -19,18 +21,16 @@ class RadiusGrid {
 
  private:
   struct Cell {
-    std::int64_t key;
     int begin, end;  // range in order_
   };
-  std::int64_t cell_of(float x, float y, float z) const;
-  const Cell* find(std::int64_t key) const;
+  std::uint64_t cell_of(float x, float y, float z) const;
+  const Cell* find(std::uint64_t key) const;
 
   const std::vector<Eigen::Vector3f>& points_;
   float radius_sq_, inv_cell_;
   std::vector<int> order_;   // point indices grouped by cell
-  std::vector<Cell> cells_;  // one per occupied cell
-  std::vector<int> slots_;   // open-addressing table of cell indices, -1 empty; 2^table_bits_ of them
-  int table_bits_ = 4;
+  std::vector<Cell> cells_;  // one per occupied cell, indexed by table_
+  VoxelKeyTable table_;      // cell key -> index in cells_
 };
 
 }  // namespace loopd
