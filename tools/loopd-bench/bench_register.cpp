@@ -123,12 +123,12 @@ std::vector<RegisterPair> kitti_pairs(const std::string& dir) {
 // 148 deg; the truth is the README's T_match_query. Empty when absent or unreadable.
 std::vector<RegisterPair> kitti_revisit(const std::string& dir) {
   std::ifstream in(dir + "/seq08/relative_1500_720.txt");
-  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  double m[16];  // row-major, after the '#' comment lines
   int have = 0;
   for (std::string line; have < 16 && std::getline(in, line);) {
     if (line.empty() || line[0] == '#') continue;
     std::istringstream row(line);
-    for (int c = 0; c < 4 && row >> m(have / 4, c); ++c) ++have;
+    for (int c = 0; c < 4 && row >> m[have]; ++c) ++have;
   }
   const CloudFile query = have == 16 ? read_kitti_bin(dir + "/seq08/001500.bin") : CloudFile{};
   const CloudFile match = query.ok ? read_kitti_bin(dir + "/seq08/000720.bin") : CloudFile{};
@@ -137,8 +137,7 @@ std::vector<RegisterPair> kitti_revisit(const std::string& dir) {
   p.name = "kitti 08 1500->720 (revisit)";
   p.query = query.cloud;
   p.match = match.cloud;
-  p.truth.matrix() = m;
-  p.truth.makeAffine();
+  p.truth = from_row_major(m);
   std::vector<RegisterPair> pairs;
   pairs.push_back(std::move(p));
   return pairs;
