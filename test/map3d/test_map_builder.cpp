@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <random>
 #include <unistd.h>
@@ -139,4 +140,34 @@ TEST_CASE("map builder: ray keys are sorted and made unique as std::sort and std
     INFO("n = " << n);
     CHECK(keys == want);
   }
+}
+
+TEST_CASE("occupancy map: free_points marks exactly the finite points at() calls free, in their order") {
+  const Scene scene = drive_past_box();
+  OccupancyMap octree{OccupancyMapConfig{}};
+  for (const MapBuildKeyframe& k : scene.keyframes)
+    octree.insert_scan(transform(scene.clouds.at(k.key.index), k.T_map_sensor), k.T_map_sensor.translation());
+  // The first keyframe's cloud in the map (the box that left: free now; the wall: occupied), points in leaves never
+  // reached (unknown) and points that are not finite.
+  PointCloud probe = transform(scene.clouds.at(0), scene.keyframes[0].T_map_sensor);
+  probe.points.emplace_back(0.f, 0.f, 500.f);
+  probe.points.emplace_back(std::nanf(""), 0.f, 0.f);
+  probe.points.emplace_back(5.f, 2.f, std::numeric_limits<float>::infinity());
+  const std::vector<std::uint8_t> free = octree.free_points(probe);
+  REQUIRE(free.size() == probe.size());
+  std::size_t n_free = 0, n_occupied = 0, mismatches = 0;
+  for (std::size_t i = 0; i < probe.size(); ++i) {
+    const Eigen::Vector3f& p = probe.points[i];
+    const bool expect = p.allFinite() && octree.at(p) == Occupancy::kFree;
+    mismatches += (free[i] != 0) != expect ? 1 : 0;
+    n_free += expect ? 1 : 0;
+    n_occupied += p.allFinite() && octree.at(p) == Occupancy::kOccupied ? 1 : 0;
+  }
+  INFO(n_free << " free, " << n_occupied << " occupied of " << probe.size());
+  CHECK(mismatches == 0);
+  CHECK(n_free > 40);  // the box's face, seen through later
+  CHECK(n_occupied > 1000);
+  CHECK(free[probe.size() - 1] == 0);
+  CHECK(free[probe.size() - 2] == 0);
+  CHECK(free[probe.size() - 3] == 0);
 }

@@ -37,13 +37,13 @@ PointCloud merge_keyframes(const std::vector<MapBuildKeyframe>& keyframes, const
     if (!cloud) continue;
     const PointCloud world = transform(*cloud, keyframes[k].T_map_sensor);
     const bool has_i = world.has_intensity();
+    const std::vector<std::uint8_t> cleared = octree ? octree->free_points(world) : std::vector<std::uint8_t>(world.size(), 0);
     for (std::size_t i = 0; i < world.size(); ++i) {
-      const Eigen::Vector3f& p = world.points[i];
-      if (octree && p.allFinite() && octree->at(p) == Occupancy::kFree) {
+      if (cleared[i]) {
         ++stats->points_cleared;
         continue;
       }
-      voxels.add(p, has_i ? world.intensity[i] : 0.0f);
+      voxels.add(world.points[i], has_i ? world.intensity[i] : 0.0f);
     }
   }
   if (progress) progress("merge", keyframes.size(), keyframes.size());

@@ -126,6 +126,17 @@ Occupancy OccupancyMap::at(const Eigen::Vector3f& p) const {
   return impl_->tree.isNodeOccupied(node) ? Occupancy::kOccupied : Occupancy::kFree;
 }
 
+std::vector<std::uint8_t> OccupancyMap::free_points(const PointCloud& cloud_world) const {
+  std::vector<std::uint8_t> free(cloud_world.size(), 0);
+  const auto n = static_cast<std::ptrdiff_t>(cloud_world.size());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f& p = cloud_world.points[static_cast<std::size_t>(i)];
+    free[static_cast<std::size_t>(i)] = p.allFinite() && at(p) == Occupancy::kFree ? 1 : 0;
+  }
+  return free;
+}
+
 std::optional<std::string> OccupancyMap::write_binary(const std::string& path) {
   impl_->tree.updateInnerOccupancy();
   std::ofstream out(path, std::ios::binary);

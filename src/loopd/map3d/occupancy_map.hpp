@@ -4,9 +4,11 @@
 /// through (a parked car that left, a person who walked on) is free again. OctoMap's headers stay in the .cpp.
 #include <Eigen/Geometry>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "loopd/base/point_cloud.hpp"
 
@@ -42,6 +44,9 @@ class OccupancyMap {
   void insert_scan(const PointCloud& cloud_world, const Eigen::Vector3d& origin_world, const std::vector<float>& free_margin = {});
   /// @brief The leaf holding `p` after every insertion so far.
   Occupancy at(const Eigen::Vector3f& p) const;
+  /// @brief 1 for each point of `cloud_world` that is finite and lies in a free leaf, else 0 (at() for every point,
+  /// looked up on OpenMP threads: the tree is only read).
+  std::vector<std::uint8_t> free_points(const PointCloud& cloud_world) const;
   /// @brief Writes OctoMap's binary format (.bt: maximum-likelihood occupied / free, pruned; octovis opens it).
   /// @return std::nullopt, or why not.
   std::optional<std::string> write_binary(const std::string& path);
