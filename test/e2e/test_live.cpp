@@ -52,7 +52,7 @@ Published read_published(const std::string& path) {
 }
 }  // namespace
 
-TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops nothing and survives crafted scans") {
+TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops nothing and survives crafted scans", "[live]") {
   if (loopd::test::run_quiet("ip route get 239.255.76.67 | grep -q 'dev lo'") != 0) {
     WARN(
         "skipped: multicast 239.255.76.0/24 is not routed through loopback (as root: ip link set lo multicast on; "

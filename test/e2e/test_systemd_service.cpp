@@ -127,7 +127,7 @@ std::string file_text(const fs::path& p) {
 }
 }  // namespace
 
-TEST_CASE("loopd under a notify socket: READY, STATUS, pings while idle and working, none while the sequential stage stalls, STOPPING") {
+TEST_CASE("loopd under a notify socket: READY, STATUS, pings while idle and working, none while the sequential stage stalls, STOPPING", "[live]") {
   if (loopd::test::run_quiet("ip route get 239.255.76.67 | grep -q 'dev lo'") != 0) {
     WARN(
         "skipped: multicast 239.255.76.0/24 is not routed through loopback (as root: ip link set lo multicast on; ip route add 239.255.76.0/24 dev "
