@@ -227,6 +227,52 @@ TEST_CASE("loopd-map info, trajectory and loops hold what loopd printed and publ
   }
 }
 
+TEST_CASE("loopd-map loops --suspect: accepted loops by their residual after the correction, a wrong loop first") {
+  const ReplayedMap& r = replayed();
+  int rc = -1;
+  const nlohmann::json all = map_json(r.map + " loops", &rc);
+  auto j = map_json(r.map + " loops --suspect --limit 100000", &rc);
+  CHECK(rc == 0);
+  CHECK(j["suspect"] == true);
+  CHECK(j["correction_revision"].get<std::int64_t>() > 0);
+  CHECK(j["without_pose"] == 0);
+  REQUIRE(j["accepted"] == all["accepted"]);
+  REQUIRE(j["loops"].size() == all["loops"].size());
+  double largest = 0.0;
+  for (std::size_t i = 0; i < j["loops"].size(); ++i) {
+    const double residual = j["loops"][i]["residual_m"].get<double>();
+    if (i > 0) CHECK(residual <= j["loops"][i - 1]["residual_m"].get<double>());  // largest first
+    largest = std::max(largest, residual);
+  }
+  INFO("largest residual of the run's own loops " << largest << " m");
+  CHECK(largest < 1.0);  // the correction agrees with the loops it was solved with
+
+  SECTION("a wrong loop injected into the store (a real loop's transform to a keyframe 60 keyframes earlier) leads the list") {
+    const std::string copy = (r.dir / "suspect.map").string();
+    fs::copy_file(r.map, copy, fs::copy_options::overwrite_existing);
+    if (!sqlite3(copy,
+                 "INSERT INTO loops SELECT (SELECT max(event_id) + 1 FROM loops), query_session, query_idx, match_session, "
+                 "query_idx - 60, query_utime, match_utime, status, stage, reason, gate_distance, gate_radius, descriptor_distance, "
+                 "lcp_fraction, icp_residual, icp_fitness, hungarian_consistency, degeneracy, T_match_query, information, retrieval, "
+                 "place_distance, confirmed, published FROM loops WHERE status = 1 AND query_idx >= 60 ORDER BY event_id LIMIT 1")) {
+      WARN("sqlite3 shell not installed: injection skipped");
+      return;
+    }
+    j = map_json(copy + " loops --suspect --limit 2", &rc);
+    CHECK(rc == 0);
+    REQUIRE(j["loops"].size() == 2);
+    CHECK(j["accepted"] == all["accepted"].get<std::int64_t>() + 1);
+    CHECK(j["loops"][0]["event_id"].get<std::int64_t>() > all["loops"].back()["event_id"].get<std::int64_t>());  // the injected one
+    CHECK(j["loops"][0]["residual_m"].get<double>() > 5.0);
+    CHECK(j["loops"][1]["residual_m"].get<double>() == Approx(largest));
+  }
+
+  SECTION("--suspect with --all is refused") {
+    map_tool(r.map + " loops --suspect --all", &rc);
+    CHECK(rc == 2);
+  }
+}
+
 TEST_CASE("loopd-map check passes on a map, fails on a tampered copy, bad files are refused with exit 2") {
   const ReplayedMap& r = replayed();
   int rc = -1;

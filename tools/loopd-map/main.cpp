@@ -30,8 +30,12 @@ int main(int argc, char** argv) {
   trajectory->add_flag("--odometry", traj.odometry, "odometry poses (T_odom_sensor) instead of the corrected ones");
   trajectory->add_option("--out", traj.out, "file to write (default: stdout)");
   CLI::App* loops = app.add_subcommand("loops", "loop decisions: accepted ones, or every one with --all");
-  bool all = false;
-  loops->add_flag("--all", all, "rejected decisions too");
+  LoopsOptions loops_options;
+  loops->add_flag("--all", loops_options.all, "rejected decisions too");
+  CLI::Option* suspect = loops->add_flag("--suspect", loops_options.suspect,
+                                         "the accepted loops that the stored correction fits worst (residual of T_match_query), largest first");
+  loops->add_option("--limit", loops_options.limit, "with --suspect: how many")->check(CLI::PositiveNumber)->capture_default_str();
+  suspect->excludes(loops->get_option("--all"));
   CLI::App* check = app.add_subcommand("check", "SQLite integrity check and the map's invariants; exit 1 when either fails");
   std::vector<CLI::App*> subs{info, trajectory, loops, check};
 #ifdef LOOPD_WITH_OCTOMAP
@@ -76,7 +80,7 @@ int main(int argc, char** argv) {
   }
   if (info->parsed()) return run_info(*map.store, options);
   if (trajectory->parsed()) return run_trajectory(*map.store, traj, options);
-  if (loops->parsed()) return run_loops(*map.store, all, options);
+  if (loops->parsed()) return run_loops(*map.store, loops_options, options);
 #ifdef LOOPD_WITH_OCTOMAP
   if (export_cloud->parsed()) return run_export_cloud(*map.store, build, options);
   if (export_octomap->parsed()) return run_export_octomap(*map.store, build, options);

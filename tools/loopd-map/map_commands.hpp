@@ -28,7 +28,18 @@ struct TrajectoryOptions {
 int run_trajectory(MapStore& store, const TrajectoryOptions& trajectory, const CommandOptions& options);
 
 /// @brief `loops`: the accepted loop decisions (every decision when `all`).
-int run_loops(MapStore& store, bool all, const CommandOptions& options);
+/// @brief What `loops` lists: every decision (all), the accepted ones, or the accepted ones by their residual after the
+/// stored correction, largest first (suspect: the loops an operator should look at first; at most `limit`).
+struct LoopsOptions {
+  bool all = false;
+  bool suspect = false;
+  int limit = 10;
+};
+int run_loops(MapStore& store, const LoopsOptions& loops, const CommandOptions& options);
+/// @brief A score column of a loop table: "-" when the stage did not compute it (stored as a negative value).
+std::string score_cell(double v);
+/// @brief `loops --suspect` (map_suspect.cpp).
+int run_suspect_loops(MapStore& store, int limit, const CommandOptions& options);
 
 struct MapBuildOptions;
 /// @brief `export-cloud`: the 3D map as .pcd / .ply (map_build_options.hpp).

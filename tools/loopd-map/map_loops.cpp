@@ -7,13 +7,11 @@
 namespace loopd::tools {
 namespace {
 
-/// @brief A score column: "-" when the stage did not compute it (stored as a negative value).
-std::string score(double v) { return v < 0.0 ? "-" : fmt(v, 3); }
-
 void add_row(Table& table, const LoopDecision& r) {
   const Eigen::Vector3d t = r.T_match_query.translation();
-  table.add({std::to_string(r.event_id), to_string(r.query), to_string(r.match), to_string(r.status), r.stage, score(r.descriptor_distance),
-             score(r.lcp_fraction), score(r.icp_residual), score(r.icp_fitness), fmt(t.x(), 3) + " " + fmt(t.y(), 3) + " " + fmt(t.z(), 3)});
+  table.add({std::to_string(r.event_id), to_string(r.query), to_string(r.match), to_string(r.status), r.stage, score_cell(r.descriptor_distance),
+             score_cell(r.lcp_fraction), score_cell(r.icp_residual), score_cell(r.icp_fitness),
+             fmt(t.x(), 3) + " " + fmt(t.y(), 3) + " " + fmt(t.z(), 3)});
 }
 
 nlohmann::json loop_json(const LoopDecision& r) {
@@ -38,7 +36,11 @@ nlohmann::json loop_json(const LoopDecision& r) {
 
 }  // namespace
 
-int run_loops(MapStore& store, bool all, const CommandOptions& options) {
+std::string score_cell(double v) { return v < 0.0 ? "-" : fmt(v, 3); }
+
+int run_loops(MapStore& store, const LoopsOptions& loops, const CommandOptions& options) {
+  if (loops.suspect) return run_suspect_loops(store, loops.limit, options);
+  const bool all = loops.all;
   Table table({"event", "query", "match", "status", "stage", "descriptor", "lcp", "icp residual [m]", "icp fitness", "T_match_query t [m]"});
   nlohmann::json list = nlohmann::json::array();
   std::int64_t accepted = 0, rejected = 0;
