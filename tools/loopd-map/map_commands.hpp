@@ -1,6 +1,7 @@
 #pragma once
 /// @file The loopd-map commands: each reads an opened map, prints a readable table and, with --json, one JSON object as
 /// the last stdout line; each returns the tool's exit status.
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "loopd/store/map_store.hpp"
@@ -38,6 +39,8 @@ struct LoopsOptions {
 int run_loops(MapStore& store, const LoopsOptions& loops, const CommandOptions& options);
 /// @brief A score column of a loop table: "-" when the stage did not compute it (stored as a negative value).
 std::string score_cell(double v);
+/// @brief One loop decision as `loops --json` lists it.
+nlohmann::json loop_json(const LoopDecision& r);
 /// @brief `loops --suspect` (map_suspect.cpp).
 int run_suspect_loops(MapStore& store, int limit, const CommandOptions& options);
 

@@ -14,6 +14,10 @@ void add_row(Table& table, const LoopDecision& r) {
              fmt(t.x(), 3) + " " + fmt(t.y(), 3) + " " + fmt(t.z(), 3)});
 }
 
+}  // namespace
+
+std::string score_cell(double v) { return v < 0.0 ? "-" : fmt(v, 3); }
+
 nlohmann::json loop_json(const LoopDecision& r) {
   const Eigen::Vector3d t = r.T_match_query.translation();
   return {{"event_id", r.event_id},
@@ -33,10 +37,6 @@ nlohmann::json loop_json(const LoopDecision& r) {
           {"degeneracy", r.degeneracy},
           {"translation", {t.x(), t.y(), t.z()}}};
 }
-
-}  // namespace
-
-std::string score_cell(double v) { return v < 0.0 ? "-" : fmt(v, 3); }
 
 int run_loops(MapStore& store, const LoopsOptions& loops, const CommandOptions& options) {
   if (loops.suspect) return run_suspect_loops(store, loops.limit, options);

@@ -55,15 +55,10 @@ int run_suspect_loops(MapStore& store, int limit, const CommandOptions& options)
     const LoopDecision& r = s.loop;
     table.add({std::to_string(r.event_id), to_string(r.query), to_string(r.match), fmt(s.residual_m, 3), fmt(s.residual_deg, 2), r.stage,
                score_cell(r.lcp_fraction), score_cell(r.icp_residual), score_cell(r.icp_fitness)});
-    list.push_back({{"event_id", r.event_id},
-                    {"query", to_string(r.query)},
-                    {"match", to_string(r.match)},
-                    {"residual_m", s.residual_m},
-                    {"residual_deg", s.residual_deg},
-                    {"stage", r.stage},
-                    {"lcp_fraction", r.lcp_fraction},
-                    {"icp_residual", r.icp_residual},
-                    {"icp_fitness", r.icp_fitness}});
+    nlohmann::json entry = loop_json(r);
+    entry["residual_m"] = s.residual_m;
+    entry["residual_deg"] = s.residual_deg;
+    list.push_back(std::move(entry));
   }
   std::cout << table.str() << shown << " of " << loops.size() << " accepted loops, largest residual first, against correction revision "
             << poses.correction_revision << (poses.correction_revision == 0 ? " (none stored: odometry poses)" : "") << "\n";
