@@ -267,6 +267,20 @@ TEST_CASE("loopd-map loops --suspect: accepted loops by their residual after the
     CHECK(j["loops"][1]["residual_m"].get<double>() == Approx(largest));
   }
 
+  SECTION("a loop naming a keyframe the map does not hold is counted, not listed") {
+    const std::string copy = (r.dir / "suspect_missing.map").string();
+    fs::copy_file(r.map, copy, fs::copy_options::overwrite_existing);
+    if (!sqlite3(copy, "UPDATE loops SET match_idx = 99999 WHERE event_id = (SELECT min(event_id) FROM loops WHERE status = 1)")) {
+      WARN("sqlite3 shell not installed: tampering skipped");
+      return;
+    }
+    j = map_json(copy + " loops --suspect --limit 100000", &rc);
+    CHECK(rc == 0);
+    CHECK(j["without_pose"] == 1);
+    CHECK(j["accepted"] == all["accepted"]);
+    CHECK(j["loops"].size() + 1 == all["loops"].size());
+  }
+
   SECTION("--suspect with --all is refused") {
     map_tool(r.map + " loops --suspect --all", &rc);
     CHECK(rc == 2);

@@ -60,12 +60,13 @@ int run_suspect_loops(MapStore& store, int limit, const CommandOptions& options)
     entry["residual_deg"] = s.residual_deg;
     list.push_back(std::move(entry));
   }
-  std::cout << table.str() << shown << " of " << loops.size() << " accepted loops, largest residual first, against correction revision "
-            << poses.correction_revision << (poses.correction_revision == 0 ? " (none stored: odometry poses)" : "") << "\n";
-  if (without_pose > 0) std::cout << without_pose << " accepted loops name a keyframe the map does not hold\n";
+  std::cout << table.str() << shown << " of " << loops.size() + static_cast<std::size_t>(without_pose)
+            << " accepted loops, largest residual first, against correction revision " << poses.correction_revision
+            << (poses.correction_revision == 0 ? " (none stored: odometry poses)" : "") << "\n";
+  if (without_pose > 0) std::cout << without_pose << " accepted loops name a keyframe the map does not hold (no residual; see check)\n";
   if (options.json)
     print_json_line({{"suspect", true},
-                     {"accepted", static_cast<std::int64_t>(loops.size())},
+                     {"accepted", static_cast<std::int64_t>(loops.size()) + without_pose},
                      {"correction_revision", poses.correction_revision},
                      {"without_pose", without_pose},
                      {"loops", list}});
