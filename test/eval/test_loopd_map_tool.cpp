@@ -113,6 +113,21 @@ bool sqlite3(const std::string& file, const std::string& sql) {
   return true;
 }
 
+/// The first accepted loop made to name a keyframe the map does not hold.
+const char* const kLoopToMissingKeyframe = "UPDATE loops SET match_idx = 99999 WHERE event_id = (SELECT min(event_id) FROM loops WHERE status = 1)";
+
+/// A copy of the replayed map named `name`, altered by `sql`; empty (with a warning) when the sqlite3 shell is not
+/// installed.
+std::string altered_copy(const ReplayedMap& r, const std::string& name, const std::string& sql) {
+  const std::string copy = (r.dir / name).string();
+  fs::copy_file(r.map, copy, fs::copy_options::overwrite_existing);
+  if (!sqlite3(copy, sql)) {
+    WARN("sqlite3 shell not installed: the altered map is skipped");
+    return {};
+  }
+  return copy;
+}
+
 }  // namespace
 
 TEST_CASE("loopd-map info, trajectory and loops hold what loopd printed and published") {
@@ -248,16 +263,13 @@ TEST_CASE("loopd-map loops --suspect: accepted loops by their residual after the
   CHECK(largest < 1.0);  // the correction agrees with the loops it was solved with
 
   SECTION("a wrong loop injected into the store (a real loop's transform to a keyframe 60 keyframes earlier) leads the list") {
-    const std::string copy = (r.dir / "suspect.map").string();
-    fs::copy_file(r.map, copy, fs::copy_options::overwrite_existing);
-    if (!sqlite3(copy,
-                 "INSERT INTO loops SELECT (SELECT max(event_id) + 1 FROM loops), query_session, query_idx, match_session, "
-                 "query_idx - 60, query_utime, match_utime, status, stage, reason, gate_distance, gate_radius, descriptor_distance, "
-                 "lcp_fraction, icp_residual, icp_fitness, hungarian_consistency, degeneracy, T_match_query, information, retrieval, "
-                 "place_distance, confirmed, published FROM loops WHERE status = 1 AND query_idx >= 60 ORDER BY event_id LIMIT 1")) {
-      WARN("sqlite3 shell not installed: injection skipped");
-      return;
-    }
+    const std::string copy =
+        altered_copy(r, "suspect.map",
+                     "INSERT INTO loops SELECT (SELECT max(event_id) + 1 FROM loops), query_session, query_idx, match_session, "
+                     "query_idx - 60, query_utime, match_utime, status, stage, reason, gate_distance, gate_radius, descriptor_distance, "
+                     "lcp_fraction, icp_residual, icp_fitness, hungarian_consistency, degeneracy, T_match_query, information, retrieval, "
+                     "place_distance, confirmed, published FROM loops WHERE status = 1 AND query_idx >= 60 ORDER BY event_id LIMIT 1");
+    if (copy.empty()) return;
     j = map_json(copy + " loops --suspect --limit 2", &rc);
     CHECK(rc == 0);
     REQUIRE(j["loops"].size() == 2);
@@ -268,12 +280,8 @@ TEST_CASE("loopd-map loops --suspect: accepted loops by their residual after the
   }
 
   SECTION("a loop naming a keyframe the map does not hold is counted, not listed") {
-    const std::string copy = (r.dir / "suspect_missing.map").string();
-    fs::copy_file(r.map, copy, fs::copy_options::overwrite_existing);
-    if (!sqlite3(copy, "UPDATE loops SET match_idx = 99999 WHERE event_id = (SELECT min(event_id) FROM loops WHERE status = 1)")) {
-      WARN("sqlite3 shell not installed: tampering skipped");
-      return;
-    }
+    const std::string copy = altered_copy(r, "suspect_missing.map", kLoopToMissingKeyframe);
+    if (copy.empty()) return;
     j = map_json(copy + " loops --suspect --limit 100000", &rc);
     CHECK(rc == 0);
     CHECK(j["without_pose"] == 1);
@@ -295,12 +303,8 @@ TEST_CASE("loopd-map check passes on a map, fails on a tampered copy, bad files 
   CHECK(j["ok"] == true);
 
   SECTION("a loop naming a keyframe the map does not hold: exit 1, the problem named") {
-    const std::string copy = (r.dir / "tampered.map").string();
-    fs::copy_file(r.map, copy, fs::copy_options::overwrite_existing);
-    if (!sqlite3(copy, "UPDATE loops SET match_idx = 99999 WHERE event_id = (SELECT min(event_id) FROM loops WHERE status = 1)")) {
-      WARN("sqlite3 shell not installed: tampering skipped");
-      return;
-    }
+    const std::string copy = altered_copy(r, "tampered.map", kLoopToMissingKeyframe);
+    if (copy.empty()) return;
     j = map_json(copy + " check", &rc);
     CHECK(rc == 1);
     CHECK(j["ok"] == false);
