@@ -6,6 +6,7 @@
 #include <cstring>
 #include <map>
 #include <optional>
+#include <set>
 #include <vector>
 
 #include "loopd/store/map_store.hpp"
@@ -130,6 +131,71 @@ inline void fill(MapStore& store, std::map<std::pair<SessionId, std::int64_t>, M
       if (written) (*written)[{s, i}] = k;
     }
   }
+}
+
+/// @brief The loop ledger on any back end, on a map fill() made: entries numbered from 1 in order, each loop's last
+/// entry decides, a change that changes nothing (or names a rejected or unknown loop) refused with kInvalid and not
+/// entered; stats() counts the loops revoked now; the correction keeps the entry it honours.
+inline void check_loop_ledger(MapStore& store) {
+  using Code = StoreStatus::Code;
+  REQUIRE_OK(store.put_loop(loop(1, {0, 2}, {0, 0}, true)));
+  REQUIRE_OK(store.put_loop(loop(2, {1, 2}, {0, 1}, true)));
+  REQUIRE_OK(store.put_loop(loop(3, {1, 2}, {1, 0}, false)));
+  const auto entry = [](std::int64_t event, bool revoked, const std::string& reason) {
+    LoopLedgerEntry e;
+    e.event_id = event;
+    e.revoked = revoked;
+    e.who = "operator ünïcode";
+    e.reason = reason;
+    e.utime = 1765000000000000 + event;
+    return e;
+  };
+  REQUIRE(store.loop_ledger().value.empty());
+  StoreResult<std::int64_t> put = store.put_ledger_entry(entry(2, true, "doubled wall on the east side; 'quoted'"));
+  REQUIRE_OK(put.status);
+  CHECK(put.value == 1);
+  for (const LoopLedgerEntry& refused :
+       {entry(2, true, "twice"), entry(1, false, "not revoked"), entry(3, true, "rejected"), entry(99, true, "unknown")}) {
+    const StoreResult<std::int64_t> r = store.put_ledger_entry(refused);
+    INFO(refused.reason << ": " << r.status.message);
+    CHECK(r.status.code == Code::kInvalid);
+    CHECK(r.status.message.find("loop event " + std::to_string(refused.event_id)) != std::string::npos);
+  }
+  CHECK(store.stats().value.loops_revoked == 1);
+  put = store.put_ledger_entry(entry(1, true, ""));
+  REQUIRE_OK(put.status);
+  CHECK(put.value == 2);
+  put = store.put_ledger_entry(entry(2, false, "it was the map, not the loop"));
+  REQUIRE_OK(put.status);
+  CHECK(put.value == 3);
+  const StoreResult<std::vector<LoopLedgerEntry>> all = store.loop_ledger();
+  REQUIRE_OK(all.status);
+  REQUIRE(all.value.size() == 3);
+  CHECK(all.value[0].seq == 1);
+  CHECK(all.value[0].event_id == 2);
+  CHECK(all.value[0].revoked);
+  CHECK(all.value[0].who == "operator ünïcode");
+  CHECK(all.value[0].reason == "doubled wall on the east side; 'quoted'");
+  CHECK(all.value[0].utime == 1765000000000002);
+  CHECK_FALSE(all.value[2].revoked);
+  CHECK(revoked_loops(all.value) == std::set<std::int64_t>{1});
+  CHECK(revoked_loops(all.value, 1) == std::set<std::int64_t>{2});
+  CHECK(newest_seq(all.value) == 3);
+  const StoreResult<std::vector<LoopLedgerEntry>> news = store.loop_ledger(2);
+  REQUIRE_OK(news.status);
+  REQUIRE(news.value.size() == 1);
+  CHECK(news.value[0].seq == 3);
+  CHECK(store.stats().value.loops_revoked == 1);
+  CorrectionRecord c;
+  c.revision = 4;
+  c.loop_event_id = 2;
+  c.method = "ledger";
+  c.ledger_seq = 3;
+  REQUIRE_OK(store.put_correction(c));
+  const auto read = store.correction();
+  REQUIRE_OK(read.status);
+  REQUIRE(read.value);
+  CHECK(read.value->ledger_seq == 3);
 }
 
 }  // namespace loopd::map_test

@@ -114,8 +114,8 @@ TEST_CASE("map clouds: drop_undecided removes the clouds of the keyframes it rem
 }
 
 TEST_CASE(
-    "map clouds: a schema 2 map gains the map_clouds table, scan fingerprints, published marks and measured steps on a writable open, read-only "
-    "it is refused with the versions") {
+    "map clouds: a schema 2 map gains the map_clouds table, scan fingerprints, published marks, measured steps and the loop ledger on a "
+    "writable open, read-only it is refused with the versions") {
   test::TempDir dir;
   const std::string path = dir.file("map.db");
   {
@@ -128,7 +128,8 @@ TEST_CASE(
   REQUIRE(sqlite3_open(path.c_str(), &db) == SQLITE_OK);
   REQUIRE(sqlite3_exec(db,
                        "DROP TABLE map_clouds; ALTER TABLE keyframes DROP COLUMN scan_fingerprint; ALTER TABLE keyframes DROP COLUMN step; "
-                       "ALTER TABLE loops DROP COLUMN published; PRAGMA user_version = 2;",
+                       "ALTER TABLE loops DROP COLUMN published; DROP TABLE loop_ledger; ALTER TABLE correction DROP COLUMN ledger_seq; "
+                       "PRAGMA user_version = 2;",
                        nullptr, nullptr, nullptr) == SQLITE_OK);
   sqlite3_close(db);
   StoreStatus status;
@@ -170,5 +171,12 @@ TEST_CASE(
   REQUIRE_OK(store->mark_published(3));
   REQUIRE_OK(store->for_each_loop(false, [&](LoopDecision&& r) { published = r.published; }));
   CHECK(published);
+  // The ledger exists now: a rejected decision cannot be revoked, and nothing is in it.
+  LoopLedgerEntry revoke;
+  revoke.event_id = 3;
+  CHECK(store->put_ledger_entry(revoke).status.code == Code::kInvalid);
+  const auto ledger = store->loop_ledger();
+  REQUIRE(ledger.ok());
+  CHECK(ledger.value.empty());
   CHECK(store->check().ok());
 }

@@ -229,6 +229,15 @@ TEST_CASE("map store: loop decisions and the correction round-trip exactly, the 
   REQUIRE_OK(store->check());
 }
 
+TEST_CASE("map store: the loop ledger keeps every revoke and restore in order and refuses changes that change nothing") {
+  const std::string backend = GENERATE("memory", "file");
+  INFO("back end " << backend);
+  TempDir dir;
+  auto store = open_ok(uri_of(backend, dir));
+  fill(*store);
+  check_loop_ledger(*store);
+}
+
 TEST_CASE("map store: a file map reopens with everything in it, read-only too") {
   TempDir dir;
   const std::string path = dir.file("map.db");

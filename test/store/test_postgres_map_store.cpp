@@ -199,6 +199,50 @@ TEST_CASE("postgres map: keyframes, map clouds, loops and the correction round-t
   REQUIRE_OK(store->check());
 }
 
+TEST_CASE("postgres map: the loop ledger as on SQLite, and each vehicle sees its own loops' entries", "[postgres]") {
+  const std::string uri = fresh_database();
+  if (uri.empty()) return;
+  auto whole = open_ok(uri);
+  fill(*whole);
+  check_loop_ledger(*whole);
+  // Vehicles 1 and 2 both number their events from 0: an entry names the vehicle whose loop it is about.
+  auto one = open_ok(uri, 1), two = open_ok(uri, 2);
+  const SessionId s1 = first_session_of(1), s2 = first_session_of(2);
+  for (auto* v : {one.get(), two.get()}) {
+    const SessionId s = v == one.get() ? s1 : s2;
+    REQUIRE_OK(v->put_session(session(s)));
+    REQUIRE_OK(v->put_keyframe(keyframe(s, 0, nullptr)));
+    REQUIRE_OK(v->put_keyframe(keyframe(s, 1, nullptr)));
+    REQUIRE_OK(v->put_loop(loop(7, {s, 1}, {s, 0}, true)));
+  }
+  LoopLedgerEntry e;
+  e.event_id = 7;
+  e.who = "fleet operator";
+  CHECK(whole->put_ledger_entry(e).status.code == Code::kInvalid);  // two vehicles hold event 7: ambiguous unscoped
+  const StoreResult<std::int64_t> put = two->put_ledger_entry(e);
+  REQUIRE_OK(put.status);
+  const auto seen_by_one = one->loop_ledger(), seen_by_two = two->loop_ledger();
+  REQUIRE_OK(seen_by_one.status);
+  REQUIRE_OK(seen_by_two.status);
+  CHECK(seen_by_one.value.empty());
+  REQUIRE(seen_by_two.value.size() == 1);
+  CHECK(seen_by_two.value[0].seq == put.value);
+  CHECK(one->stats().value.loops_revoked == 0);
+  CHECK(two->stats().value.loops_revoked == 1);
+  // The fleet's joint graph leaves the revoked loop out, and its counts move with the ledger (the solver solves again).
+  for (auto* v : {one.get(), two.get()})
+    for (std::int64_t i : {0, 1}) REQUIRE_OK(v->mark_decided({v == one.get() ? s1 : s2, i}));
+  std::vector<KeyframeKey> fleet_loop_queries;
+  REQUIRE_OK(whole->shared()->for_each_fleet_loop([&](LoopDecision&& l) {
+    if (l.event_id == 7) fleet_loop_queries.push_back(l.query);
+  }));
+  CHECK(fleet_loop_queries == std::vector<KeyframeKey>{{s1, 1}});
+  const auto counts = whole->shared()->fleet_counts();
+  REQUIRE_OK(counts.status);
+  CHECK(counts.value.ledger_seq == put.value);
+  CHECK(one->put_ledger_entry(e).ok());  // vehicle 1's event 7 is a loop of its own
+}
+
 TEST_CASE("postgres map: keyframes are read in batches, in key order, each once", "[postgres]") {
   const std::string uri = fresh_database();
   if (uri.empty()) return;

@@ -50,11 +50,15 @@ struct CorrectionRecord {
   std::vector<KeyframeKey> keys;                ///< every keyframe at that revision, in the order added
   std::vector<Eigen::Isometry3d> T_map_sensor;  ///< corrected poses, by keys
   std::vector<std::uint8_t> corrector_state;    ///< the corrector's own resumable state (opaque to the store)
+  /// The newest loop ledger entry (records/loop_ledger.hpp) this correction accounts for: the loops revoked by the
+  /// entries up to it are not in it (0: made before any entry). A map whose ledger has newer entries is corrected again.
+  std::int64_t ledger_seq = 0;
 };
 
 /// @brief Totals for `loopd-map info` and status_t.
 struct MapStats {
   std::int64_t sessions = 0, keyframes = 0, loops_accepted = 0, loops_rejected = 0;
+  std::int64_t loops_revoked = 0;                                          ///< of loops_accepted: revoked by the loop ledger (now)
   std::int64_t map_clouds = 0, map_cloud_points = 0, map_cloud_bytes = 0;  ///< keyframes with a map cloud; their points and blob bytes
   std::int64_t bytes = 0;                                                  ///< on disk (database + journal)
 };
@@ -84,6 +88,7 @@ struct FleetCounts {
   std::int64_t keyframes = 0;        ///< decided keyframes of every vehicle
   std::int64_t loops_accepted = 0;   ///< accepted loops of every vehicle
   std::int64_t newest_revision = 0;  ///< of the joint correction (0: none yet)
+  std::int64_t ledger_seq = 0;       ///< the loop ledger's newest entry (a revoke or restore changes the graph)
 };
 
 }  // namespace loopd

@@ -151,7 +151,7 @@ void FleetSync::solve_if_due(bool last) {
   // Between rounds a few new keyframes wait for the next solve; the last round solves for any new keyframe, so the
   // final trajectory covers all of them.
   const std::int64_t solve_every = last ? 1 : config_.solve_every_keyframes;
-  if (solved_counts_ && counts.value.loops_accepted == solved_counts_->loops_accepted &&
+  if (solved_counts_ && counts.value.loops_accepted == solved_counts_->loops_accepted && counts.value.ledger_seq == solved_counts_->ledger_seq &&
       counts.value.keyframes - solved_counts_->keyframes < solve_every && counts.value.newest_revision == solved_counts_->newest_revision)
     return;
   std::vector<JointKeyframe> keyframes;

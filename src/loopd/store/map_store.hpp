@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "loopd/base/point_cloud.hpp"
+#include "loopd/records/loop_ledger.hpp"
 #include "loopd/records/store_records.hpp"
 
 namespace loopd {
@@ -111,6 +112,13 @@ class MapStore {
   virtual StoreStatus mark_published(std::int64_t event_id) = 0;
   /// @brief Every decision in event order; accepted_only: only accepted loops.
   virtual StoreStatus for_each_loop(bool accepted_only, const std::function<void(LoopDecision&&)>& visit) = 0;
+
+  /// @brief Appends `entry` to the loop ledger and returns its seq (entry.seq is ignored). Refused (kInvalid, saying
+  /// why) unless entry.event_id is an accepted loop of this map (of this vehicle's, with a vehicle set) that the entry
+  /// changes: revoking a revoked loop, or restoring one not revoked, is refused.
+  virtual StoreResult<std::int64_t> put_ledger_entry(const LoopLedgerEntry& entry) = 0;
+  /// @brief The ledger's entries with seq > after_seq, in order (after_seq: the newest one seen; a poll for news).
+  virtual StoreResult<std::vector<LoopLedgerEntry>> loop_ledger(std::int64_t after_seq = 0) = 0;
 
   /// @brief Replaces the stored correction state.
   virtual StoreStatus put_correction(const CorrectionRecord& correction) = 0;

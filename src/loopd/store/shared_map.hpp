@@ -29,7 +29,7 @@ class SharedMap {
 
   /// @brief Every decided keyframe of every vehicle, pose-deep (KeyframeLoad::kPose), in key order.
   virtual StoreStatus for_each_fleet_keyframe(const std::function<void(MapKeyframe&&)>& visit) = 0;
-  /// @brief Every accepted loop of every vehicle whose two keyframes are decided.
+  /// @brief Every accepted loop of every vehicle whose two keyframes are decided, but those the loop ledger revokes.
   virtual StoreStatus for_each_fleet_loop(const std::function<void(LoopDecision&&)>& visit) = 0;
   virtual StoreResult<FleetCounts> fleet_counts() = 0;
 

@@ -80,6 +80,8 @@ class PostgresMapStore final : public MapStore, public SharedMap {
   StoreResult<std::int64_t> drop_undecided() override;
   StoreStatus put_loop(const LoopDecision& loop) override;
   StoreStatus for_each_loop(bool accepted_only, const std::function<void(LoopDecision&&)>& visit) override;
+  StoreResult<std::int64_t> put_ledger_entry(const LoopLedgerEntry& entry) override;
+  StoreResult<std::vector<LoopLedgerEntry>> loop_ledger(std::int64_t after_seq) override;
   StoreStatus put_correction(const CorrectionRecord& correction) override;
   StoreResult<std::optional<CorrectionRecord>> correction() override;
   StoreResult<MapStats> stats() override;
@@ -500,11 +502,72 @@ StoreStatus PostgresMapStore::put_correction(const CorrectionRecord& c) {
   for (const Eigen::Isometry3d& T : c.T_map_sensor) blobs::append_pose(poses, T);
   return connection_.run("put correction revision " + std::to_string(c.revision), [&](Tx& t) {
     t.exec_params(
-        "INSERT INTO correction VALUES ($1, $2, $3, $4, $5, $6, $7, $8) ON CONFLICT (vehicle) DO UPDATE SET revision = "
+        "INSERT INTO correction VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9) ON CONFLICT (vehicle) DO UPDATE SET revision = "
         "excluded.revision, loop_event_id = excluded.loop_event_id, method = excluded.method, T_map_odom = excluded.T_map_odom, "
-        "keys = excluded.keys, poses = excluded.poses, corrector_state = excluded.corrector_state",
-        writer(), c.revision, c.loop_event_id, c.method, bin(blobs::pose_blob(c.T_map_odom)), bin(keys), bin(poses), bin(c.corrector_state));
+        "keys = excluded.keys, poses = excluded.poses, corrector_state = excluded.corrector_state, ledger_seq = excluded.ledger_seq",
+        writer(), c.revision, c.loop_event_id, c.method, bin(blobs::pose_blob(c.T_map_odom)), bin(keys), bin(poses), bin(c.corrector_state),
+        c.ledger_seq);
   });
+}
+
+// ---- loop ledger ----
+
+StoreResult<std::int64_t> PostgresMapStore::put_ledger_entry(const LoopLedgerEntry& e) {
+  StoreResult<std::int64_t> out;
+  const std::string what = std::string(e.revoked ? "revoke" : "restore") + " loop event " + std::to_string(e.event_id);
+  std::string refused;
+  out.status = connection_.run(what, [&](Tx& t) {
+    // The loop's row is locked: two operators entering the same change at once cannot both pass the check.
+    const pqxx::result loops =
+        t.exec_params("SELECT vehicle, status FROM loops WHERE ($1 < 0 OR vehicle = $1) AND event_id = $2 FOR UPDATE", vehicle_, e.event_id);
+    if (loops.empty()) {
+      refused = "the map holds no such loop";
+      return;
+    }
+    if (loops.size() > 1) {
+      refused = "the vehicles' event ids overlap here (" + std::to_string(loops.size()) + " vehicles hold the event): open the map as one vehicle";
+      return;
+    }
+    const int vehicle = loops[0][0].as<int>();
+    if (loops[0][1].as<int>() != status_code(LoopStatus::kAccepted)) {
+      refused = "the loop was not accepted (only accepted loops are revoked)";
+      return;
+    }
+    const pqxx::result last =
+        t.exec_params("SELECT revoked FROM loop_ledger WHERE vehicle = $1 AND event_id = $2 ORDER BY seq DESC LIMIT 1", vehicle, e.event_id);
+    const bool revoked = !last.empty() && last[0][0].as<bool>();
+    if (revoked == e.revoked) {
+      refused = revoked ? "the loop is revoked already" : "the loop is not revoked";
+      return;
+    }
+    out.value =
+        t.exec_params1("INSERT INTO loop_ledger (vehicle, event_id, revoked, who, reason, utime) VALUES ($1, $2, $3, $4, $5, $6) RETURNING seq",
+                       vehicle, e.event_id, e.revoked, e.who, e.reason, e.utime)[0]
+            .as<std::int64_t>();
+  });
+  if (out.ok() && !refused.empty()) out.status = {Code::kInvalid, "map " + display_ + ": " + what + ": " + refused};
+  return out;
+}
+
+StoreResult<std::vector<LoopLedgerEntry>> PostgresMapStore::loop_ledger(std::int64_t after_seq) {
+  StoreResult<std::vector<LoopLedgerEntry>> out;
+  out.status = connection_.run("read the loop ledger", [&](Tx& t) {
+    out.value.clear();  // a retried transaction starts again
+    const pqxx::result rows =
+        t.exec_params("SELECT seq, event_id, revoked, who, reason, utime FROM loop_ledger WHERE ($1 < 0 OR vehicle = $1) AND seq > $2 ORDER BY seq",
+                      vehicle_, after_seq);
+    for (const pqxx::row& r : rows) {
+      LoopLedgerEntry e;
+      e.seq = r[0].as<std::int64_t>();
+      e.event_id = r[1].as<std::int64_t>();
+      e.revoked = r[2].as<bool>();
+      e.who = r[3].as<std::string>();
+      e.reason = r[4].as<std::string>();
+      e.utime = r[5].as<std::int64_t>();
+      out.value.push_back(std::move(e));
+    }
+  });
+  return out;
 }
 
 StoreResult<std::optional<CorrectionRecord>> PostgresMapStore::correction() {
@@ -512,7 +575,7 @@ StoreResult<std::optional<CorrectionRecord>> PostgresMapStore::correction() {
   bool bad = false;
   out.status = connection_.run("read the correction", [&](Tx& t) {
     const pqxx::result r = t.exec_params(
-        "SELECT revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state FROM correction WHERE vehicle = $1", writer());
+        "SELECT revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state, ledger_seq FROM correction WHERE vehicle = $1", writer());
     if (r.empty()) return;
     CorrectionRecord c;
     c.revision = r[0][0].as<std::int64_t>();
@@ -527,6 +590,7 @@ StoreResult<std::optional<CorrectionRecord>> PostgresMapStore::correction() {
       c.T_map_sensor.push_back(blobs::read_pose(poses.data() + i * blobs::kPoseBytes));
     }
     c.corrector_state = bytes_of(r[0][6]);
+    c.ledger_seq = r[0][7].as<std::int64_t>();
     out.value = std::move(c);
   });
   if (bad) out.status = corrupt("the correction's keys and poses have the wrong sizes");
@@ -545,11 +609,13 @@ StoreResult<MapStats> PostgresMapStore::stats() {
         "(SELECT count(*) FROM loops WHERE ($3 < 0 OR vehicle = $3) AND status = 1), (SELECT count(*) FROM loops WHERE ($3 < 0 OR vehicle = $3) "
         "AND status <> 1), (SELECT count(*) FROM map_clouds WHERE session BETWEEN $1 AND $2), (SELECT coalesce(sum(points), 0) FROM map_clouds "
         "WHERE session BETWEEN $1 AND $2), (SELECT coalesce(sum(length(cloud)), 0) FROM map_clouds WHERE session BETWEEN $1 AND $2), "
-        "pg_database_size(current_database())",
+        "pg_database_size(current_database()), (SELECT count(*) FROM loops l WHERE ($3 < 0 OR l.vehicle = $3) AND l.status = 1 AND "
+        "(SELECT e.revoked FROM loop_ledger e WHERE e.vehicle = l.vehicle AND e.event_id = l.event_id ORDER BY e.seq DESC LIMIT 1))",
         lo, hi, vehicle_);
-    std::int64_t* fields[] = {&out.value.sessions,   &out.value.keyframes,        &out.value.loops_accepted,  &out.value.loops_rejected,
-                              &out.value.map_clouds, &out.value.map_cloud_points, &out.value.map_cloud_bytes, &out.value.bytes};
-    for (int i = 0; i < 8; ++i) *fields[i] = r[i].as<std::int64_t>();
+    std::int64_t* fields[] = {&out.value.sessions,        &out.value.keyframes,  &out.value.loops_accepted,
+                              &out.value.loops_rejected,  &out.value.map_clouds, &out.value.map_cloud_points,
+                              &out.value.map_cloud_bytes, &out.value.bytes,      &out.value.loops_revoked};
+    for (int i = 0; i < 9; ++i) *fields[i] = r[i].as<std::int64_t>();
   });
   if (out.ok()) size_bytes_.store(out.value.bytes);
   return out;
@@ -654,9 +720,10 @@ StoreStatus PostgresMapStore::for_each_fleet_loop(const std::function<void(LoopD
       "read the fleet's loops",
       [](Tx& t) {
         return t.exec("SELECT " + std::string(postgres::kLoopColumns) +
-                      " FROM loops WHERE status = 1 AND EXISTS (SELECT 1 FROM keyframes q WHERE q.session = query_session AND q.idx = query_idx "
+                      " FROM loops l WHERE status = 1 AND EXISTS (SELECT 1 FROM keyframes q WHERE q.session = query_session AND q.idx = query_idx "
                       "AND q.decided) AND EXISTS (SELECT 1 FROM keyframes m WHERE m.session = match_session AND m.idx = match_idx AND m.decided) "
-                      "ORDER BY vehicle, event_id");
+                      "AND NOT coalesce((SELECT e.revoked FROM loop_ledger e WHERE e.vehicle = l.vehicle AND e.event_id = l.event_id ORDER BY "
+                      "e.seq DESC LIMIT 1), false) ORDER BY vehicle, event_id");
       },
       visit);
 }
@@ -666,10 +733,11 @@ StoreResult<FleetCounts> PostgresMapStore::fleet_counts() {
   out.status = connection_.run("count the fleet's map", [&](Tx& t) {
     const pqxx::row r = t.exec1(
         "SELECT (SELECT count(*) FROM keyframes WHERE decided), (SELECT count(*) FROM loops WHERE status = 1), "
-        "(SELECT coalesce(max(revision), 0) FROM fleet_corrections)");
+        "(SELECT coalesce(max(revision), 0) FROM fleet_corrections), (SELECT coalesce(max(seq), 0) FROM loop_ledger)");
     out.value.keyframes = r[0].as<std::int64_t>();
     out.value.loops_accepted = r[1].as<std::int64_t>();
     out.value.newest_revision = r[2].as<std::int64_t>();
+    out.value.ledger_seq = r[3].as<std::int64_t>();
   });
   return out;
 }

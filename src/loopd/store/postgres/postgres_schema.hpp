@@ -33,7 +33,12 @@ CREATE TABLE loops (
 CREATE INDEX loops_query ON loops (query_session, query_idx);
 CREATE TABLE correction (
   vehicle integer PRIMARY KEY, revision bigint NOT NULL, loop_event_id bigint NOT NULL, method text NOT NULL,
-  T_map_odom bytea NOT NULL, keys bytea NOT NULL, poses bytea NOT NULL, corrector_state bytea NOT NULL);
+  T_map_odom bytea NOT NULL, keys bytea NOT NULL, poses bytea NOT NULL, corrector_state bytea NOT NULL,
+  ledger_seq bigint NOT NULL DEFAULT 0);
+CREATE TABLE loop_ledger (
+  seq bigserial PRIMARY KEY, vehicle integer NOT NULL, event_id bigint NOT NULL, revoked boolean NOT NULL, who text NOT NULL,
+  reason text NOT NULL, utime bigint NOT NULL, stored_at timestamptz NOT NULL DEFAULT clock_timestamp());
+CREATE INDEX loop_ledger_by_event ON loop_ledger (vehicle, event_id, seq);
 CREATE TABLE fleet_corrections (
   revision bigint PRIMARY KEY, solver_vehicle integer NOT NULL, loops bigint NOT NULL, solved_utime bigint NOT NULL,
   keys bytea NOT NULL, poses bytea NOT NULL, utimes bytea NOT NULL, sessions bytea NOT NULL,
@@ -48,10 +53,15 @@ inline constexpr const char* kKeyframeColumns =
 /// Schema upgrades, from version i + 1 to i + 2 (run under the schema lock, with the version row updated).
 /// 1 -> 2: the keyframes' scan fingerprints (0 before: a replay resume matches those by time and pose alone).
 /// 2 -> 3: the keyframes' steps measured by the scans (none before: the odometry's steps are used there).
+/// 3 -> 4: the loop ledger (empty before) and the ledger entry each vehicle's correction accounts for.
 inline constexpr const char* kSchemaUpgrades[] = {
     "ALTER TABLE keyframes ADD COLUMN scan_fingerprint bigint NOT NULL DEFAULT 0; "
     "ALTER TABLE loops ADD COLUMN published boolean NOT NULL DEFAULT true",
     "ALTER TABLE keyframes ADD COLUMN step bytea",
+    "ALTER TABLE correction ADD COLUMN ledger_seq bigint NOT NULL DEFAULT 0; "
+    "CREATE TABLE loop_ledger (seq bigserial PRIMARY KEY, vehicle integer NOT NULL, event_id bigint NOT NULL, revoked boolean NOT NULL, "
+    "who text NOT NULL, reason text NOT NULL, utime bigint NOT NULL, stored_at timestamptz NOT NULL DEFAULT clock_timestamp()); "
+    "CREATE INDEX loop_ledger_by_event ON loop_ledger (vehicle, event_id, seq)",
 };
 
 inline constexpr const char* kLoopColumns =

@@ -194,8 +194,18 @@ CREATE TABLE correction (
   T_map_odom BLOB NOT NULL,
   keys BLOB NOT NULL,
   poses BLOB NOT NULL,
-  corrector_state BLOB NOT NULL
+  corrector_state BLOB NOT NULL,
+  ledger_seq INTEGER NOT NULL DEFAULT 0
 );
+CREATE TABLE loop_ledger (
+  seq INTEGER PRIMARY KEY,
+  event_id INTEGER NOT NULL,
+  revoked INTEGER NOT NULL,
+  who TEXT NOT NULL,
+  reason TEXT NOT NULL,
+  utime INTEGER NOT NULL
+);
+CREATE INDEX loop_ledger_by_event ON loop_ledger (event_id, seq);
 )sql";
 
 // Keyframe columns shared by the two bulk reads; the full read adds `features` (last: reading the others never walks
@@ -231,6 +241,8 @@ class SqliteMapStore final : public MapStore {
   StoreResult<std::int64_t> drop_undecided() override;
   StoreStatus put_loop(const LoopDecision& loop) override;
   StoreStatus for_each_loop(bool accepted_only, const std::function<void(LoopDecision&&)>& visit) override;
+  StoreResult<std::int64_t> put_ledger_entry(const LoopLedgerEntry& entry) override;
+  StoreResult<std::vector<LoopLedgerEntry>> loop_ledger(std::int64_t after_seq) override;
   StoreStatus put_correction(const CorrectionRecord& correction) override;
   StoreResult<std::optional<CorrectionRecord>> correction() override;
   StoreResult<MapStats> stats() override;
@@ -255,6 +267,9 @@ class SqliteMapStore final : public MapStore {
     kStoredKeyframe,
     kStoredLoop,
     kMarkPublished,
+    kPutLedger,
+    kLedger,
+    kLoopState,
     kCount
   };
 
@@ -306,12 +321,16 @@ const char* sql_of(int s) {
       "UPDATE keyframes SET decided = 1 WHERE session = ? AND idx = ?",
       "INSERT INTO loops VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 0)",
       "SELECT * FROM loops WHERE ?1 = 0 OR status = 1 ORDER BY event_id",
-      ("INSERT OR REPLACE INTO correction (id, revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state) "
-       "VALUES (1, ?, ?, ?, ?, ?, ?, ?)"),
-      "SELECT revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state FROM correction WHERE id = 1",
+      ("INSERT OR REPLACE INTO correction (id, revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state, ledger_seq) "
+       "VALUES (1, ?, ?, ?, ?, ?, ?, ?, ?)"),
+      "SELECT revision, loop_event_id, method, T_map_odom, keys, poses, corrector_state, ledger_seq FROM correction WHERE id = 1",
       "SELECT utime, T_odom_sensor, scan_fingerprint FROM keyframes WHERE session = ? AND idx = ?",
       "SELECT query_session, query_idx, match_session, match_idx, status, T_match_query FROM loops WHERE event_id = ?",
       "UPDATE loops SET published = 1 WHERE event_id = ?",
+      "INSERT INTO loop_ledger (event_id, revoked, who, reason, utime) VALUES (?, ?, ?, ?, ?)",
+      "SELECT seq, event_id, revoked, who, reason, utime FROM loop_ledger WHERE seq > ? ORDER BY seq",
+      ("SELECT l.status, (SELECT e.revoked FROM loop_ledger e WHERE e.event_id = l.event_id ORDER BY e.seq DESC LIMIT 1) "
+       "FROM loops l WHERE l.event_id = ?"),
   };
   return kSql[s];
 }
@@ -360,7 +379,8 @@ StoreStatus SqliteMapStore::upgrade_schema(std::int64_t from) {
   // loop was found. 2 -> 3: the keyframes' map clouds (keyframes stored before have none: left out of the 3D map).
   // 3 -> 4: the keyframes' scan fingerprints (0 before: a replay resume matches those by time and pose alone) and
   // whether each decision reached the bus (decisions stored before were). 4 -> 5: the keyframes' steps measured by the
-  // scans (none before: the corrections use the odometry's steps there, as when they were made).
+  // scans (none before: the corrections use the odometry's steps there, as when they were made). 5 -> 6: the loop
+  // ledger (empty before) and the ledger entry each correction accounts for.
   const char* const steps[] = {
       "",
       ("ALTER TABLE keyframes ADD COLUMN place BLOB; ALTER TABLE loops ADD COLUMN retrieval TEXT NOT NULL DEFAULT 'gate'; "
@@ -370,6 +390,9 @@ StoreStatus SqliteMapStore::upgrade_schema(std::int64_t from) {
       "ALTER TABLE keyframes ADD COLUMN scan_fingerprint INTEGER NOT NULL DEFAULT 0; ALTER TABLE loops ADD COLUMN published INTEGER NOT NULL DEFAULT "
       "1;",
       "ALTER TABLE keyframes ADD COLUMN step BLOB;",
+      ("ALTER TABLE correction ADD COLUMN ledger_seq INTEGER NOT NULL DEFAULT 0; CREATE TABLE loop_ledger (seq INTEGER PRIMARY KEY, "
+       "event_id INTEGER NOT NULL, revoked INTEGER NOT NULL, who TEXT NOT NULL, reason TEXT NOT NULL, utime INTEGER NOT NULL); "
+       "CREATE INDEX loop_ledger_by_event ON loop_ledger (event_id, seq);"),
   };
   std::string sql = "BEGIN IMMEDIATE;";
   for (std::int64_t v = from; v < kSqliteMapSchemaVersion; ++v) sql += steps[v];
@@ -741,8 +764,68 @@ StoreStatus SqliteMapStore::put_correction(const CorrectionRecord& c) {
   for (const KeyframeKey& k : c.keys) append_key(keys, k);
   for (const Eigen::Isometry3d& T : c.T_map_sensor) append_pose(poses, T);
   Use use(stmt(kPutCorrection));
-  use.i64(c.revision).i64(c.loop_event_id).text(c.method).blob(pose_blob(c.T_map_odom)).blob(keys).blob(poses).blob(c.corrector_state);
+  use.i64(c.revision)
+      .i64(c.loop_event_id)
+      .text(c.method)
+      .blob(pose_blob(c.T_map_odom))
+      .blob(keys)
+      .blob(poses)
+      .blob(c.corrector_state)
+      .i64(c.ledger_seq);
   return done(use, "put correction revision " + std::to_string(c.revision));
+}
+
+// ---- loop ledger ----
+
+StoreResult<std::int64_t> SqliteMapStore::put_ledger_entry(const LoopLedgerEntry& e) {
+  StoreResult<std::int64_t> out;
+  const std::string what = std::string(e.revoked ? "revoke" : "restore") + " loop event " + std::to_string(e.event_id);
+  {
+    Use use(stmt(kLoopState));
+    use.i64(e.event_id);
+    const int rc = use.step();
+    if (rc == SQLITE_DONE) {
+      out.status = {Code::kInvalid, "map " + path_ + ": " + what + ": the map holds no such loop"};
+      return out;
+    }
+    if (rc != SQLITE_ROW) {
+      out.status = fail(rc, what);
+      return out;
+    }
+    if (use.i64_at(0) != status_code(LoopStatus::kAccepted)) {
+      out.status = {Code::kInvalid, "map " + path_ + ": " + what + ": the loop was not accepted (only accepted loops are revoked)"};
+      return out;
+    }
+    const bool revoked = !use.is_null(1) && use.i64_at(1) != 0;
+    if (revoked == e.revoked) {
+      out.status = {Code::kInvalid, "map " + path_ + ": " + what + ": the loop is " + (revoked ? "revoked already" : "not revoked")};
+      return out;
+    }
+  }
+  Use use(stmt(kPutLedger));
+  use.i64(e.event_id).i64(e.revoked ? 1 : 0).text(e.who).text(e.reason).i64(e.utime);
+  out.status = done(use, what);
+  if (out.ok()) out.value = sqlite3_last_insert_rowid(db_);
+  return out;
+}
+
+StoreResult<std::vector<LoopLedgerEntry>> SqliteMapStore::loop_ledger(std::int64_t after_seq) {
+  StoreResult<std::vector<LoopLedgerEntry>> out;
+  Use use(stmt(kLedger));
+  use.i64(after_seq);
+  int rc = SQLITE_ROW;
+  while ((rc = use.step()) == SQLITE_ROW) {
+    LoopLedgerEntry e;
+    e.seq = use.i64_at(0);
+    e.event_id = use.i64_at(1);
+    e.revoked = use.i64_at(2) != 0;
+    e.who = use.text_at(3);
+    e.reason = use.text_at(4);
+    e.utime = use.i64_at(5);
+    out.value.push_back(std::move(e));
+  }
+  if (rc != SQLITE_DONE) out.status = fail(rc, "read the loop ledger");
+  return out;
 }
 
 StoreStatus SqliteMapStore::read_correction(const Use& row, CorrectionRecord& c) const {
@@ -767,6 +850,7 @@ StoreStatus SqliteMapStore::read_correction(const Use& row, CorrectionRecord& c)
     c.T_map_sensor.push_back(read_pose(poses + i * kPoseBytes));
   }
   if (ns > 0) c.corrector_state.assign(state, state + ns);
+  c.ledger_seq = row.i64_at(7);
   return {};
 }
 
@@ -794,6 +878,9 @@ StoreResult<MapStats> SqliteMapStore::stats() {
       {"SELECT count(*) FROM keyframes", &out.value.keyframes},
       {"SELECT count(*) FROM loops WHERE status = 1", &out.value.loops_accepted},
       {"SELECT count(*) FROM loops WHERE status <> 1", &out.value.loops_rejected},
+      {("SELECT count(*) FROM loops l WHERE l.status = 1 AND (SELECT e.revoked FROM loop_ledger e WHERE e.event_id = l.event_id "
+        "ORDER BY e.seq DESC LIMIT 1) = 1"),
+       &out.value.loops_revoked},
       {"SELECT count(*) FROM map_clouds", &out.value.map_clouds},
       {"SELECT coalesce(sum(points), 0) FROM map_clouds", &out.value.map_cloud_points},
       {"SELECT coalesce(sum(length(cloud)), 0) FROM map_clouds", &out.value.map_cloud_bytes},
