@@ -298,6 +298,19 @@ CorrectionResult LoopCorrector::solve_all() {
   return r;
 }
 
+CorrectionResult LoopCorrector::replace_loops(std::vector<LoopConstraint> loops) {
+  for (const LoopConstraint& l : loops)
+    if (auto why = check_loop(l)) {
+      CorrectionResult r;
+      r.method = config_.method;
+      r.reason = *why;
+      return r;
+    }
+  drop_pending();
+  loops_ = std::move(loops);
+  return recorrect_all();
+}
+
 CorrectionResult LoopCorrector::recorrect_all() {
   drop_pending();  // everything is solved again from the chain
   CorrectionResult r;

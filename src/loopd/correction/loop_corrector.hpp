@@ -154,6 +154,9 @@ class LoopCorrector {
 
   /// @brief Re-corrects from odometry with all loops (e.g. after changing the method).
   CorrectionResult recorrect_all();
+  /// @brief `loops` in place of every loop held (a loop taken out, or one put back), then recorrect_all(): the result
+  ///        is the correction of a run that had only these loops. Refused (nothing changes) when one does not fit.
+  CorrectionResult replace_loops(std::vector<LoopConstraint> loops);
   /// @brief One pose-graph solve of every keyframe and loop from the current corrected state (the end of a run: the
   ///        loops heuristic+graph closed by the heuristic alone since the last solve join it, and so do the keyframes
   ///        added after the last loop). The heuristic method keeps its state (ok = false).

@@ -297,6 +297,7 @@ std::optional<CorrectionOutput> LoopDetector::close_loop(const KeyframeRecord& q
   // Vlaminck 2019 Sec. 4.4 / Ren 2019 Sec. 3.4.3: the heuristic, then the pose graph.
   Stopwatch sw;
   const CorrectionResult result = corrector_.add_loop(loop);
+  if (corrector_.loops().size() > loop_events_.size()) loop_events_.push_back(event_id);
   if (!result.ok) return std::nullopt;  // check_loop() said it would take it; nothing else refuses
   return correction_output(result, event_id, sw);
 }
@@ -310,6 +311,7 @@ CorrectionOutput LoopDetector::correction_output(const CorrectionResult& result,
   c.T_map_odom = T_map_odom();
   c.sessions = session_alignments();
   c.resume_state = corrector_.resume_state();
+  c.ledger_seq = ledger_seq_;
   const std::vector<Eigen::Isometry3d>& corrected = corrector_.corrected_poses();
   const std::vector<KeyframeRecord>& records = keyframes_.records();
   c.keys.resize(records.size());

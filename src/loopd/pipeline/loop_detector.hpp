@@ -5,6 +5,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -118,6 +119,8 @@ struct CorrectionOutput {
   Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();  ///< of the newest keyframe's session
   std::vector<SessionAlignment> sessions;                        ///< every session, by id
   CorrectorResumeState resume_state;                             ///< what a map store keeps to resume correcting from this revision
+  /// The newest loop ledger entry (records/loop_ledger.hpp) whose revocations this revision honours (0: none known).
+  std::int64_t ledger_seq = 0;
   double ms = 0.0;
 };
 
@@ -163,8 +166,9 @@ class LoopDetector {
   /// @brief A stored keyframe, placed again as add_keyframe() placed it.
   void restore_keyframe(const KeyframeRecord& record);
   /// @brief A stored decision of the newest restored keyframe, counted again; an accepted one becomes a loop edge again
-  /// with `information` (its correction comes from resume_correction() or is made again by reapply_loop()).
-  void restore_decision(const LoopDecision& decision, const Information6d& information);
+  /// with `information` (its correction comes from resume_correction() or is made again by reapply_loop()), unless
+  /// `revoked` (the loop ledger revoked it before the stored correction): then it is held aside as set_revoked_loops() holds it.
+  void restore_decision(const LoopDecision& decision, const Information6d& information, bool revoked = false);
   /// @brief The stored correction made by the newest restored keyframe's accepted loop: every restored keyframe's
   /// corrected pose (by key) and the corrector's resumable state. Covers every accepted loop restored so far.
   std::optional<std::string> resume_correction(std::int64_t revision, const std::vector<KeyframeKey>& keys,
@@ -174,6 +178,16 @@ class LoopDetector {
   std::optional<CorrectionOutput> reapply_loop(const LoopDecision& decision, const Information6d& information);
   /// @brief The corrector's resumable state (what the engine stores with each correction).
   CorrectorResumeState corrector_state() const { return corrector_.resume_state(); }
+
+  /// @brief The accepted loops an operator revoked (the map's loop ledger up to entry `ledger_seq`): each leaves the
+  /// pose graph and every later correction, and a loop no longer named (restored) joins it again. When that changes
+  /// which loops the graph holds, the whole graph is solved again from the chain (LoopCorrector::replace_loops): a new
+  /// revision, method "ledger", the correction of a run without the revoked loops. `force`: solved again even when
+  /// nothing changed (loopd-map correct). Loops to keyframes of other vehicles are not in this graph (the fleet's).
+  std::optional<CorrectionOutput> set_revoked_loops(const std::set<std::int64_t>& event_ids, std::int64_t ledger_seq, bool force = false);
+  /// @brief The loops set_revoked_loops() keeps out of the graph, and the ledger entry it was last told.
+  std::size_t revoked_loops() const { return revoked_.size(); }
+  std::int64_t ledger_seq() const { return ledger_seq_; }
   /// @brief Decisions a stop cut off (published, then removed from the map with their undecided query keyframe): when
   /// the same candidate (query scan time, match keyframe) is decided again it takes the same event id, and new ones
   /// number after every id published, so an event id never names two candidates.
@@ -300,6 +314,11 @@ class LoopDetector {
   std::int64_t steps_skewed_ = 0;
   std::optional<KeyframeKey> last_accepted_;  ///< query of the newest accepted loop
   std::vector<LoopConstraint> restored_loops_;
+  std::vector<std::int64_t> restored_events_;  ///< event ids of restored_loops_
+  /// Event id of each loop in corrector_.loops(), in its order (set_revoked_loops finds the loops it takes out by them).
+  std::vector<std::int64_t> loop_events_;
+  std::map<std::int64_t, LoopConstraint> revoked_;  ///< accepted loops revoked by the ledger, by event id
+  std::int64_t ledger_seq_ = 0;
   SessionFrames sessions_;               ///< sessions in the corrector's one pose sequence, and which loops tied them
   PlaceIndex places_;                    ///< every keyframe's place descriptor (global retrieval), remote ones too
   RemoteKeyframes remote_;               ///< other vehicles' keyframes (fleet)

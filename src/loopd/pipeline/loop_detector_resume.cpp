@@ -1,6 +1,8 @@
 // LoopDetector: resuming from what a map store holds (the engine reads the store; the detector never sees it).
 #include "loopd/pipeline/loop_detector.hpp"
 
+#include <algorithm>
+
 namespace loopd {
 
 void LoopDetector::restore_keyframe(const KeyframeRecord& record) {
@@ -35,6 +37,7 @@ LoopConstraint LoopDetector::count_restored(const LoopDecision& decision, const 
   ++loops_accepted_;
   if (!pose_index_.count(decision.match)) return loop;  // to another vehicle's keyframe: the fleet's joint correction takes it
   last_accepted_ = decision.query;
+  last_correction_event_id_ = std::max(last_correction_event_id_, decision.event_id);  // each such loop made a correction
   if (!sessions_.cannot_tie(decision.query.session, decision.match.session)) sessions_.tie(decision.query.session, decision.match.session);
   travelled_at_last_loop_ = travelled_;
   loop.query_index = pose_index(decision.query);
@@ -45,9 +48,15 @@ LoopConstraint LoopDetector::count_restored(const LoopDecision& decision, const 
   return loop;
 }
 
-void LoopDetector::restore_decision(const LoopDecision& decision, const Information6d& information) {
+void LoopDetector::restore_decision(const LoopDecision& decision, const Information6d& information, bool revoked) {
   const LoopConstraint loop = count_restored(decision, information);
-  if (decision.status == LoopStatus::kAccepted && pose_index_.count(decision.match) && !corrector_.check_loop(loop)) restored_loops_.push_back(loop);
+  if (decision.status != LoopStatus::kAccepted || !pose_index_.count(decision.match) || corrector_.check_loop(loop)) return;
+  if (revoked) {
+    revoked_[decision.event_id] = loop;
+    return;
+  }
+  restored_loops_.push_back(loop);
+  restored_events_.push_back(decision.event_id);
 }
 
 std::optional<std::string> LoopDetector::resume_correction(std::int64_t revision, const std::vector<KeyframeKey>& keys,
@@ -61,6 +70,8 @@ std::optional<std::string> LoopDetector::resume_correction(std::int64_t revision
     corrected[static_cast<std::size_t>(it->second)] = T_map_sensor[i];
   }
   if (auto why = corrector_.resume(restored_loops_, corrected, state)) return why;
+  loop_events_ = std::move(restored_events_);
+  restored_events_.clear();
   restored_loops_.clear();
   revision_ = revision;
   update_gate(0);
@@ -72,6 +83,7 @@ std::optional<CorrectionOutput> LoopDetector::reapply_loop(const LoopDecision& d
   if (decision.status != LoopStatus::kAccepted || !pose_index_.count(decision.match) || corrector_.check_loop(loop)) return std::nullopt;
   Stopwatch sw;
   const CorrectionResult result = corrector_.add_loop(loop);
+  if (corrector_.loops().size() > loop_events_.size()) loop_events_.push_back(decision.event_id);
   if (!result.ok) return std::nullopt;
   CorrectionOutput c = correction_output(result, decision.event_id, sw);
   update_gate(result.moved_from);

@@ -190,6 +190,7 @@ void LoopdEngine::tick(double wall_time_s) {
     if (sequencing_) return;  // busy: it calls the sink anyway
     sequencing_ = true;       // the sink is this thread's until it gives the role back
   }
+  apply_ledger();
   sink_->on_idle();
   // Keyframes that became ready meanwhile waited for the role: sequence them as complete() would have.
   std::unique_lock<std::mutex> lock(sequence_mutex_);
@@ -301,6 +302,8 @@ ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes) {
   session_keys_.restore(r.stored, skip_stored_keyframes);
   for (const CorrectionOutput& c : r.corrections) sink_->on_correction(c);
   std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.loops_revoked = r.loops_revoked;
+  stats_.ledger_corrections = r.ledger_corrected ? 1 : 0;
   stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
   stats_.loops_accepted = detector_.loops_accepted();
   stats_.loops_rejected = detector_.loops_rejected();
@@ -620,7 +623,23 @@ void LoopdEngine::sequence_ready(std::unique_lock<std::mutex>& lock) {
   done_cv_.notify_all();
 }
 
+void LoopdEngine::apply_ledger() {
+  if (!ledger_feed_) return;
+  const std::optional<LedgerState> ledger = ledger_feed_();
+  if (!ledger) return;
+  const std::optional<CorrectionOutput> c = detector_.set_revoked_loops(ledger->revoked, ledger->ledger_seq);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.loops_revoked = static_cast<std::int64_t>(detector_.revoked_loops());
+    if (c) ++stats_.ledger_corrections;
+  }
+  if (!c) return;
+  sink_->on_correction(*c);
+  release_free_heap();  // after a whole-graph solve, as after any
+}
+
 void LoopdEngine::run_sequential(ReadyKeyframe& item) {
+  apply_ledger();
   // Other vehicles' keyframes read since the last keyframe become candidates first (a fleet on one map).
   if (remote_feed_)
     for (KeyframeRecord& remote : remote_feed_()) detector_.add_remote_keyframe(std::move(remote));

@@ -21,6 +21,7 @@
 #include "loopd/pipeline/loop_detector.hpp"
 #include "loopd/runtime/map_resume.hpp"
 #include "loopd/runtime/clock_watch.hpp"
+#include "loopd/runtime/ledger_watch.hpp"
 #include "loopd/runtime/odometry_reset_filter.hpp"
 #include "loopd/runtime/scan_loss_estimator.hpp"
 #include "loopd/runtime/scan_pose_associator.hpp"
@@ -148,6 +149,8 @@ struct EngineStats {
   std::int64_t session = 0;                  ///< the session this run's keyframes go to now
   std::int64_t sessions_opened = 0;          ///< sessions this run opened (another drive, an odometry reset)
   std::int64_t keyframes_skipped = 0;        ///< scans recognised as keyframes the map holds (a replay rerun) and skipped
+  std::int64_t loops_revoked = 0;            ///< accepted loops the map's loop ledger keeps out of the graph now
+  std::int64_t ledger_corrections = 0;       ///< graph solves made because the ledger changed (running, or at start)
   double deskew_max_correction = 0.0;        ///< [m] largest distance deskew moved a point
   std::int64_t sweeps_from_scans = 0;        ///< keyframes deskewed with the motion their scans measured (deskew.from_scans)
   std::int64_t sweeps_from_odometry = 0;     ///< keyframes that tried and kept the odometry's motion (scans disagreed, did not register)
@@ -203,6 +206,10 @@ class LoopdEngine {
   /// @brief Before any input: other vehicles' keyframes (a fleet on one map), taken by the sequential stage before each
   /// keyframe of this vehicle and added to the detector as candidates (LoopDetector::add_remote_keyframe).
   void set_remote_feed(std::function<std::vector<KeyframeRecord>()> feed) { remote_feed_ = std::move(feed); }
+  /// @brief Before any input: the map's loop ledger (runtime/ledger_watch.hpp), asked by the sequential stage before
+  /// each keyframe and when idle (tick); when it names other revoked loops, the detector solves its graph again without
+  /// them (LoopDetector::set_revoked_loops) and the correction goes to the sink like any other.
+  void set_ledger_feed(std::function<std::optional<LedgerState>()> feed) { ledger_feed_ = std::move(feed); }
   /// @brief Keyframes recognised as already in the map and skipped (replay resume).
   std::int64_t keyframes_skipped() const { return keyframes_skipped_.load(); }
   /// @brief How far each stage got and whether work waits for it; callable from any thread.
@@ -291,6 +298,9 @@ class LoopdEngine {
   std::int64_t next_sequence_ = 0;
   bool features_in_store_ = false;
   std::function<std::vector<KeyframeRecord>()> remote_feed_;
+  std::function<std::optional<LedgerState>()> ledger_feed_;
+  /// The ledger's news, applied to the detector (sequential stage).
+  void apply_ledger();
   bool map_clouds_ = false;
   std::atomic<std::int64_t> keyframes_skipped_{0};
   double residual_since_keyframe_ = 0.0;

@@ -13,6 +13,7 @@ CorrectionRecord to_correction_record(const CorrectionOutput& c) {
   r.keys = c.keys;
   r.T_map_sensor = c.T_map_sensor;
   r.corrector_state = encode_resume_state(c.resume_state);
+  r.ledger_seq = c.ledger_seq;
   return r;
 }
 

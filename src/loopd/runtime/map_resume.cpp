@@ -36,16 +36,19 @@ std::optional<std::string> read_loops(MapStore& store, std::vector<LoopDecision>
 
 /// @brief Restores the decisions `query` made (they follow its keyframe in event order): the ones the stored
 /// correction covers are counted again, later accepted ones are corrected again.
+/// `revoked`: the loops the ledger had revoked when the stored correction was made (kept out of the graph, as then).
 std::optional<std::string> restore_decisions(const KeyframeKey& query, const std::vector<LoopDecision>& loops, std::size_t* next,
-                                             const StoredCorrection& stored, LoopDetector& detector, ResumeSummary& summary) {
+                                             const StoredCorrection& stored, const std::set<std::int64_t>& revoked, LoopDetector& detector,
+                                             ResumeSummary& summary) {
   for (; *next < loops.size() && loops[*next].query == query; ++*next) {
     const LoopDecision& d = loops[*next];
     ++summary.decisions;
-    if (d.status == LoopStatus::kAccepted && (!stored.present || d.event_id > stored.record.loop_event_id)) {
+    const bool out_of_graph = d.accepted() && revoked.count(d.event_id) > 0;
+    if (d.status == LoopStatus::kAccepted && !out_of_graph && (!stored.present || d.event_id > stored.record.loop_event_id)) {
       if (auto c = detector.reapply_loop(d, d.information)) summary.corrections.push_back(std::move(*c));
       continue;
     }
-    detector.restore_decision(d, d.information);
+    detector.restore_decision(d, d.information, out_of_graph);
     if (!stored.present || d.event_id != stored.record.loop_event_id) continue;
     if (!stored.record.keys.empty() && !(stored.record.keys.back() == query)) continue;  // made by a later keyframe (below)
     if (auto why = detector.resume_correction(stored.record.revision, stored.record.keys, stored.record.T_map_sensor, stored.state)) return *why;
@@ -104,6 +107,15 @@ ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeL
     detector.expect_decisions(summary.cut_off);
   }
 
+  // The loop ledger: the loops revoked when the stored correction was made stay out of the graph while it is restored;
+  // revocations entered since (loopd-map loops --revoke while loopd was stopped) are applied at the end.
+  const StoreResult<std::vector<LoopLedgerEntry>> ledger = store.loop_ledger();
+  if (!ledger.ok()) {
+    summary.error = ledger.status.message;
+    return summary;
+  }
+  const std::set<std::int64_t> revoked_then = revoked_loops(ledger.value, stored.present ? stored.record.ledger_seq : 0);
+
   std::size_t next_loop = 0;
   std::optional<std::string> failure;
   const StoreStatus read = store.for_each_keyframe(std::nullopt, load, [&](MapKeyframe&& k) {
@@ -116,7 +128,7 @@ ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeL
     detector.restore_keyframe(k.record);
     ++summary.keyframes;
     summary.stored.push_back({k.record.key, k.record.utime, k.record.T_odom_sensor, k.record.scan_fingerprint});
-    failure = restore_decisions(k.record.key, loops, &next_loop, stored, detector, summary);
+    failure = restore_decisions(k.record.key, loops, &next_loop, stored, revoked_then, detector, summary);
   });
   if (!read.ok()) failure = read.message;
   if (!failure && next_loop != loops.size())
@@ -128,6 +140,13 @@ ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeL
     summary.error = store.uri() + ": cannot resume: " + *failure;
     return summary;
   }
+  const std::set<std::int64_t> revoked_now = revoked_loops(ledger.value);
+  summary.loops_revoked = static_cast<std::int64_t>(revoked_now.size());
+  if (auto c = detector.set_revoked_loops(revoked_now, newest_seq(ledger.value))) {
+    summary.ledger_corrected = true;
+    summary.corrections.push_back(std::move(*c));
+  }
+  summary.ledger = ledger.value;
   summary.ok = true;
   summary.seconds = sw.ms() * 1e-3;
   return summary;

@@ -101,7 +101,7 @@ StoreStatus MapWriter::put_alignments(const std::vector<SessionAlignment>& align
 }
 
 void MapWriter::on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor, const MapCloudBlob& map_cloud) {
-  decided_with_correction_ = false;
+  decided_with_correction_.reset();
   const std::int64_t cloud_bytes = map_cloud ? static_cast<std::int64_t>(map_cloud->size()) : 0;
   write(
       "keyframe " + to_string(keyframe.key),
@@ -137,9 +137,9 @@ void MapWriter::on_correction(const CorrectionOutput& correction) {
   if (correction_delay_ms_ > 0) std::this_thread::sleep_for(std::chrono::milliseconds(correction_delay_ms_));
   // The correction and "its keyframe is decided" in one transaction: a stop between them would leave a correction
   // naming a keyframe that resume removes.
-  decided_with_correction_ = true;
   std::optional<KeyframeKey> decided;
   if (!correction.keys.empty()) decided = correction.keys.back();
+  decided_with_correction_ = decided;
   write("correction revision " + std::to_string(correction.revision),
         [this, record = to_correction_record(correction), alignments = correction.sessions, decided] {
           StoreStatus s = store_.begin();
@@ -159,8 +159,9 @@ void MapWriter::on_correction(const CorrectionOutput& correction) {
 }
 
 void MapWriter::on_keyframe_decided(const KeyframeKey& keyframe) {
-  if (!decided_with_correction_) write("keyframe " + to_string(keyframe) + " decided", [this, keyframe] { return store_.mark_decided(keyframe); });
-  decided_with_correction_ = false;
+  if (!(decided_with_correction_ && *decided_with_correction_ == keyframe))
+    write("keyframe " + to_string(keyframe) + " decided", [this, keyframe] { return store_.mark_decided(keyframe); });
+  decided_with_correction_.reset();
   next_.on_keyframe_decided(keyframe);
 }
 

@@ -91,8 +91,10 @@ class MapWriter : public EngineSink {
   EngineSink& next_;
   int log_every_n_;
   int correction_delay_ms_;
-  bool decided_with_correction_ = false;  ///< the correction's transaction already marked the keyframe decided
-  bool stopped_ = false;                  ///< a write was refused: nothing more is written
+  /// The newest correction's transaction marked this keyframe decided (its newest); a correction made between keyframes
+  /// (at resume, or by the loop ledger) names one decided before, and the next keyframe is still marked.
+  std::optional<KeyframeKey> decided_with_correction_;
+  bool stopped_ = false;  ///< a write was refused: nothing more is written
   std::string sensor_, source_;
   std::optional<std::map<SessionId, SessionRecord>> sessions_;  ///< the store's session rows (read at the first keyframe)
   struct Pending {

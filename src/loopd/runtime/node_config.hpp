@@ -47,6 +47,7 @@ struct NodeConfig {
   FleetConfig fleet;                           ///< a fleet on one shared (postgresql://) map (fleet.*)
   std::int64_t max_buffered_keyframes = 5000;  ///< map.max_buffered_keyframes: writes kept while the map server is away
   double map_retry_period = 2.0;               ///< map.retry_period [s]: the longest pause between tries of writes waiting for the map
+  double ledger_poll = 1.0;  ///< map.ledger_poll [s]: how often a running loopd reads the map's loop ledger (loopd-map loops --revoke)
   std::optional<std::string> validate() const;
 };
 

@@ -37,7 +37,10 @@ void log_resume(const MapStore& store, const ResumeSummary& r) {
                static_cast<long long>(r.keyframes), static_cast<long long>(r.decisions), static_cast<long long>(r.revision), r.seconds);
   if (r.dropped_undecided > 0)
     std::fprintf(stderr, "; %lld keyframe(s) cut off by the stop are processed again", static_cast<long long>(r.dropped_undecided));
-  if (!r.corrections.empty()) std::fprintf(stderr, "; %zu correction(s) cut off by the stop made again", r.corrections.size());
+  const std::size_t cut_off_corrections = r.corrections.size() - (r.ledger_corrected ? 1 : 0);
+  if (cut_off_corrections > 0) std::fprintf(stderr, "; %zu correction(s) cut off by the stop made again", cut_off_corrections);
+  if (r.loops_revoked > 0) std::fprintf(stderr, "; %lld loop(s) revoked by the loop ledger", static_cast<long long>(r.loops_revoked));
+  if (r.ledger_corrected) std::fprintf(stderr, "; the ledger changed since the stored correction: the graph was solved again without them");
   if (!r.cut_off.empty())
     std::fprintf(stderr, "; their %zu decision(s) keep their event ids and are not published again when decided the same", r.cut_off.size());
   std::fprintf(stderr, "\n");
@@ -98,6 +101,11 @@ bool NodeRuntime::resume(const EngineConfig& config, const std::string& origin, 
   }
   republish_->expect(r.cut_off_published);
   log_resume(*store_, r);
+  // Revocations entered while loopd runs reach the detector within map.ledger_poll (read on the sequential stage,
+  // which owns the store).
+  ledger_ = std::make_unique<LedgerWatch>(*store_, r.ledger, node_.ledger_poll);
+  LedgerWatch* ledger = ledger_.get();
+  engine_->set_ledger_feed([ledger] { return ledger->poll(); });
   return true;
 }
 

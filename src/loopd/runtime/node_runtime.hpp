@@ -62,6 +62,7 @@ class NodeRuntime {
   std::unique_ptr<RepublishFilter> republish_;           ///< between the writer and the output
   std::unique_ptr<MapWriter> writer_;
   std::unique_ptr<FaultStallSink> stall_;  ///< TEST-ONLY (FaultStallSink::from_environment)
+  std::unique_ptr<LedgerWatch> ledger_;    ///< the map's loop ledger, read by the engine's sequential stage
   std::unique_ptr<LoopdEngine> engine_;
   std::unique_ptr<FleetSync> fleet_;
 };
