@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <unistd.h>
@@ -292,6 +294,135 @@ TEST_CASE("loopd-map loops --suspect: accepted loops by their residual after the
   SECTION("--suspect with --all is refused") {
     map_tool(r.map + " loops --suspect --all", &rc);
     CHECK(rc == 2);
+  }
+}
+
+namespace {
+
+/// The first accepted loop 60 or more keyframes long made to name a keyframe 60 keyframes before its match, confirmed
+/// (no robust kernel): a wrong loop as a place that looks like another would make it.
+const char* const kWrongConfirmedLoop =
+    "UPDATE loops SET match_idx = match_idx - 60, confirmed = 1 WHERE event_id = (SELECT min(event_id) FROM loops WHERE status = 1 AND "
+    "match_idx >= 60)";
+
+std::string file_text(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+}  // namespace
+
+TEST_CASE("loopd-map loops --revoke, ledger and correct: a revoked wrong loop leaves no trace, a restored one comes back") {
+  const ReplayedMap& r = replayed();
+  const std::string wrong = altered_copy(r, "revoke_wrong.map", kWrongConfirmedLoop);
+  if (wrong.empty()) return;
+  const std::string right = (r.dir / "revoke_right.map").string();
+  fs::copy_file(r.map, right, fs::copy_options::overwrite_existing);
+  int rc = -1;
+  // The loop made wrong: the one whose match differs from the map loopd made.
+  const nlohmann::json original = map_json(r.map + " loops --all", &rc), altered = map_json(wrong + " loops --all", &rc);
+  REQUIRE(original["loops"].size() == altered["loops"].size());
+  std::int64_t event = -1, rejected = -1;
+  for (std::size_t i = 0; i < original["loops"].size(); ++i) {
+    if (original["loops"][i]["match"] != altered["loops"][i]["match"]) event = original["loops"][i]["event_id"].get<std::int64_t>();
+    if (original["loops"][i]["status"] == "rejected") rejected = original["loops"][i]["event_id"].get<std::int64_t>();
+  }
+  REQUIRE(event >= 0);
+  REQUIRE(rejected >= 0);
+  const std::int64_t accepted = original["accepted"].get<std::int64_t>();
+
+  nlohmann::json j = map_json(wrong + " correct", &rc);
+  REQUIRE(rc == 0);
+  CHECK(j["loops"] == accepted);
+  CHECK(j["moved_max_m"].get<double>() > 10.0);  // the wrong loop wrecks the map (59 m measured)
+  const std::string with_wrong_loop = (r.dir / "with_wrong.kitti").string();
+  map_tool(wrong + " trajectory --format kitti --out " + with_wrong_loop, &rc);
+  REQUIRE(rc == 0);
+
+  j = map_json(wrong + " loops --revoke " + std::to_string(event) + " --reason 'doubled wall, east side' --who tester", &rc);
+  REQUIRE(rc == 0);
+  CHECK(j["seq"] == 1);
+  CHECK(j["action"] == "revoke");
+  CHECK(j["who"] == "tester");
+  CHECK(j["reason"] == "doubled wall, east side");
+  j = map_json(wrong + " info", &rc);
+  CHECK(j["loops_revoked"] == 1);
+  CHECK(j["ledger_seq"] == 1);
+  CHECK(j["correction_ledger_seq"] == 0);  // the correction is older than the ledger until correct runs
+
+  std::string log = map_tool(wrong + " loops --revoke " + std::to_string(event), &rc);
+  CHECK(rc == 2);
+  CHECK(log.find("revoked already") != std::string::npos);
+  log = map_tool(wrong + " loops --restore " + std::to_string(event + 1), &rc);
+  CHECK(rc == 2);
+  CHECK(log.find("not revoked") != std::string::npos);
+  log = map_tool(wrong + " loops --revoke " + std::to_string(rejected), &rc);
+  CHECK(rc == 2);
+  CHECK(log.find("not accepted") != std::string::npos);
+  map_tool(wrong + " loops --reason alone", &rc);
+  CHECK(rc == 2);
+
+  j = map_json(wrong + " correct", &rc);
+  REQUIRE(rc == 0);
+  CHECK(j["loops"] == accepted - 1);
+  CHECK(j["loops_revoked"] == 1);
+  CHECK(j["ledger_seq"] == 1);
+  // The map loopd made, with the same (right) loop revoked, corrects to the same trajectory to the last digit.
+  map_json(right + " loops --revoke " + std::to_string(event), &rc);
+  REQUIRE(rc == 0);
+  map_json(right + " correct", &rc);
+  REQUIRE(rc == 0);
+  const std::string revoked_wrong = (r.dir / "revoked_wrong.kitti").string(), revoked_right = (r.dir / "revoked_right.kitti").string();
+  map_tool(wrong + " trajectory --format kitti --out " + revoked_wrong, &rc);
+  map_tool(right + " trajectory --format kitti --out " + revoked_right, &rc);
+  CHECK(file_text(revoked_wrong) == file_text(revoked_right));
+  CHECK(file_text(revoked_wrong) != file_text(with_wrong_loop));
+
+  j = map_json(wrong + " ledger", &rc);
+  CHECK(rc == 0);
+  REQUIRE(j["entries"].size() == 1);
+  CHECK(j["entries"][0]["event_id"] == event);
+  CHECK(j["revoked"] == nlohmann::json::array({event}));
+  CHECK(j["correction_ledger_seq"] == 1);
+  j = map_json(wrong + " loops", &rc);
+  for (const auto& loop : j["loops"]) CHECK(loop["revoked"] == (loop["event_id"] == event));
+  CHECK(j["revoked"] == 1);
+  j = map_json(wrong + " loops --suspect --limit 1000", &rc);
+  CHECK(j["revoked"] == 1);
+  CHECK(j["loops"].size() == static_cast<std::size_t>(accepted - 1));
+  map_json(wrong + " check", &rc);
+  CHECK(rc == 0);
+
+  SECTION("restored, the loop is back: the trajectory with the wrong loop again") {
+    j = map_json(wrong + " loops --restore " + std::to_string(event) + " --reason 'it was right after all'", &rc);
+    REQUIRE(rc == 0);
+    CHECK(j["seq"] == 2);
+    j = map_json(wrong + " correct", &rc);
+    CHECK(j["loops"] == accepted);
+    const std::string restored = (r.dir / "restored.kitti").string();
+    map_tool(wrong + " trajectory --format kitti --out " + restored, &rc);
+    CHECK(file_text(restored) == file_text(with_wrong_loop));
+  }
+  SECTION("loopd started on a map whose ledger is newer than its correction corrects it at start") {
+    map_json(wrong + " loops --restore " + std::to_string(event), &rc);
+    REQUIRE(rc == 0);
+    const std::string tiny = (r.dir / "tiny.lcmlog").string(), out = (r.dir / "tiny_out.lcmlog").string();
+    log = test::run_command(kBin + "/tools/loopd-sim/loopd-sim --out " + tiny + " --sensor vlp16 --scans 3 --seed 23 --route block --quiet", &rc);
+    REQUIRE(rc == 0);
+    log = test::run_command(kBin + "/daemon/loopd --sensor vlp16 --replay " + tiny + " --map " + wrong + " --output " + out, &rc);
+    INFO(log);
+    REQUIRE(rc == 0);
+    CHECK(log.find("the graph was solved again") != std::string::npos);
+    j = map_json(wrong + " info", &rc);
+    CHECK(j["loops_revoked"] == 0);
+    CHECK(j["correction_ledger_seq"] == 2);
+    int trajectories = 0;
+    LogReader reader;
+    std::string error;
+    REQUIRE(reader.open(out, &error));
+    LogEvent ev;
+    while (reader.next(&ev)) trajectories += ev.channel == channels::kTrajectory ? 1 : 0;
+    CHECK(trajectories >= 1);  // the new correction was published
   }
 }
 

@@ -1,6 +1,7 @@
 // loopd-map: what a loopd map file holds (loopd --map FILE): info, trajectory, loops, check, and the 3D map built from
-// it (export-cloud, export-octomap, picture). Opens the map read-only, so it can run while loopd writes to it and
-// never creates a map.
+// it (export-cloud, export-octomap, picture); and the loop ledger (loops --revoke / --restore, ledger, correct). Opens
+// the map read-only, so it can run while loopd writes to it, except for the ledger's writes and correct; never creates
+// a map.
 #include <CLI/CLI.hpp>
 #include <iostream>
 #include <unistd.h>
@@ -14,8 +15,47 @@
 
 using namespace loopd::tools;
 
+namespace {
+
+/// The loop ledger's options and commands: loops --revoke / --restore [--reason] [--who], ledger, correct.
+struct LedgerCli {
+  LedgerEntryOptions entry;
+  std::int64_t revoke_event = -1, restore_event = -1;
+  CLI::Option *revoke = nullptr, *restore = nullptr, *reason = nullptr, *who = nullptr;
+  CLI::App *ledger = nullptr, *correct = nullptr;
+  CorrectOptions correct_options;
+  bool entry_given() const { return revoke->count() > 0 || restore->count() > 0; }
+};
+
+void add_ledger_options(CLI::App& app, CLI::App& loops, LedgerCli& cli) {
+  cli.revoke = loops.add_option("--revoke", cli.revoke_event, "revoke this accepted loop (event id): no later correction uses it")
+                   ->check(CLI::NonNegativeNumber);
+  cli.restore = loops.add_option("--restore", cli.restore_event, "restore this revoked loop (event id)")->check(CLI::NonNegativeNumber);
+  cli.reason = loops.add_option("--reason", cli.entry.reason, "with --revoke / --restore: why (kept in the ledger)");
+  cli.who = loops.add_option("--who", cli.entry.who, "with --revoke / --restore: who (default: the login name)");
+  for (CLI::Option* o : {cli.revoke, cli.restore}) o->excludes(loops.get_option("--suspect"))->excludes(loops.get_option("--all"));
+  cli.revoke->excludes(cli.restore);
+  cli.ledger = app.add_subcommand("ledger", "the loop ledger: every revoke and restore, who, when, why; the loops revoked now");
+  cli.correct = app.add_subcommand(
+      "correct", "make the map's correction again with every accepted loop the ledger leaves (one pose-graph solve); loopd stopped");
+  cli.correct->add_option("--config", cli.correct_options.config,
+                          "loopd's YAML config the map was made with (correction.*); default: loopd's defaults");
+}
+
+int run_ledger_cli(loopd::MapStore& store, LedgerCli& cli, const CommandOptions& options) {
+  if (!cli.entry_given()) {
+    std::cerr << "loopd-map: --reason and --who go with --revoke or --restore\n";
+    return kExitBadInput;
+  }
+  cli.entry.revoke = cli.revoke->count() > 0;
+  cli.entry.event_id = cli.entry.revoke ? cli.revoke_event : cli.restore_event;
+  return run_ledger_entry(store, cli.entry, options);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
-  CLI::App app{"loopd-map: inspect a loopd map (loopd --map FILE), read-only"};
+  CLI::App app{"loopd-map: inspect a loopd map (loopd --map FILE), read-only; revoke or restore its loops and correct it again"};
   std::string path;
   CommandOptions options;
   bool quiet = false;
@@ -36,8 +76,10 @@ int main(int argc, char** argv) {
                                          "the accepted loops that the stored correction fits worst (residual of T_match_query), largest first");
   loops->add_option("--limit", loops_options.limit, "with --suspect: how many")->check(CLI::PositiveNumber)->capture_default_str();
   suspect->excludes(loops->get_option("--all"));
+  LedgerCli ledger_cli;
+  add_ledger_options(app, *loops, ledger_cli);
   CLI::App* check = app.add_subcommand("check", "SQLite integrity check and the map's invariants; exit 1 when either fails");
-  std::vector<CLI::App*> subs{info, trajectory, loops, check};
+  std::vector<CLI::App*> subs{info, trajectory, loops, check, ledger_cli.ledger, ledger_cli.correct};
 #ifdef LOOPD_WITH_OCTOMAP
   MapBuildOptions build;
   CLI::App* export_cloud = app.add_subcommand("export-cloud", "the 3D map (corrected poses, moving objects and noise removed) as .pcd or .ply");
@@ -73,14 +115,19 @@ int main(int argc, char** argv) {
   }
   options.progress = !quiet && ::isatty(STDERR_FILENO) == 1;
 
-  ReadOnlyMap map = open_map_read_only(path);
+  const bool writes = ledger_cli.correct->parsed() || ledger_cli.entry_given();
+  ReadOnlyMap map = open_map_read_only(path, writes);
   if (!map.store) {
     std::cerr << "loopd-map: " << map.error << "\n";
     return kExitBadInput;
   }
   if (info->parsed()) return run_info(*map.store, options);
   if (trajectory->parsed()) return run_trajectory(*map.store, traj, options);
+  if (loops->parsed() && (ledger_cli.entry_given() || ledger_cli.reason->count() > 0 || ledger_cli.who->count() > 0))
+    return run_ledger_cli(*map.store, ledger_cli, options);
   if (loops->parsed()) return run_loops(*map.store, loops_options, options);
+  if (ledger_cli.ledger->parsed()) return run_ledger(*map.store, options);
+  if (ledger_cli.correct->parsed()) return run_correct(*map.store, ledger_cli.correct_options, options);
 #ifdef LOOPD_WITH_OCTOMAP
   if (export_cloud->parsed()) return run_export_cloud(*map.store, build, options);
   if (export_octomap->parsed()) return run_export_octomap(*map.store, build, options);

@@ -44,6 +44,24 @@ nlohmann::json loop_json(const LoopDecision& r);
 /// @brief `loops --suspect` (map_suspect.cpp).
 int run_suspect_loops(MapStore& store, int limit, const CommandOptions& options);
 
+/// @brief `loops --revoke EVENT` / `--restore EVENT`: one loop ledger entry.
+struct LedgerEntryOptions {
+  std::int64_t event_id = 0;
+  bool revoke = true;  ///< false: restore
+  std::string who;     ///< empty: the login name
+  std::string reason;
+};
+/// @brief Appends the entry (map_ledger.cpp); exit 2 when the store refuses it (no such accepted loop, no change).
+int run_ledger_entry(MapStore& store, const LedgerEntryOptions& entry, const CommandOptions& options);
+/// @brief `ledger`: every entry, the loops revoked now, and the entry the stored correction honours.
+int run_ledger(MapStore& store, const CommandOptions& options);
+
+/// @brief `correct`: the map's correction made again from its keyframes and every loop the ledger leaves (map_correct.cpp).
+struct CorrectOptions {
+  std::string config;  ///< loopd's YAML config the map was made with (the correction's settings); empty: defaults
+};
+int run_correct(MapStore& store, const CorrectOptions& correct, const CommandOptions& options);
+
 struct MapBuildOptions;
 /// @brief `export-cloud`: the 3D map as .pcd / .ply (map_build_options.hpp).
 int run_export_cloud(MapStore& store, const MapBuildOptions& build, const CommandOptions& options);

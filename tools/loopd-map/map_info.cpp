@@ -53,7 +53,8 @@ int run_info(MapStore& store, const CommandOptions& options) {
   const StoreResult<MapStats> stats = store.stats();
   const StoreResult<std::vector<SessionRecord>> sessions = store.sessions();
   const StoreResult<std::optional<CorrectionRecord>> correction = store.correction();
-  for (const StoreStatus* s : {&stats.status, &sessions.status, &correction.status}) {
+  const StoreResult<std::vector<LoopLedgerEntry>> ledger = store.loop_ledger();
+  for (const StoreStatus* s : {&stats.status, &sessions.status, &correction.status, &ledger.status}) {
     if (s->ok()) continue;
     std::cerr << "loopd-map: " << s->message << "\n";
     return kExitBadInput;
@@ -73,14 +74,20 @@ int run_info(MapStore& store, const CommandOptions& options) {
   totals.add({"keyframes with usable features", std::to_string(counts.usable_features)});
   totals.add({"loops accepted", std::to_string(m.loops_accepted)});
   totals.add({"loops rejected", std::to_string(m.loops_rejected)});
+  totals.add({"loops revoked (loop ledger)", std::to_string(m.loops_revoked)});
   totals.add({"correction revision", correction.value ? std::to_string(revision) : "none"});
   totals.add({"keyframes in the correction", correction.value ? std::to_string(correction.value->keys.size()) : "0"});
+  const std::int64_t correction_seq = correction.value ? correction.value->ledger_seq : 0, ledger_seq = newest_seq(ledger.value);
+  totals.add({"loop ledger entries (the correction honours up to)", std::to_string(ledger_seq) + " (" + std::to_string(correction_seq) + ")"});
   const std::string per =
       m.map_clouds > 0 ? fmt(static_cast<double>(m.map_cloud_bytes) / static_cast<double>(m.map_clouds) / 1024.0, 1) + " KiB each" : "-";
   totals.add(
       {"keyframes with a map cloud (points, bytes)", std::to_string(m.map_clouds) + " (" + std::to_string(m.map_cloud_points) + ", " + per + ")"});
   totals.add({"bytes on disk", std::to_string(m.bytes) + " (" + fmt(static_cast<double>(m.bytes) / 1048576.0, 1) + " MiB)"});
   std::cout << totals.str();
+  if (correction.value && correction_seq < ledger_seq)
+    std::cout << "the loop ledger changed after the correction: `loopd-map " << store.uri()
+              << " correct` (or loopd at its next start, or a running loopd) makes it again\n";
   if (options.json) {
     print_json_line({{"map", store.uri()},
                      {"sessions", m.sessions},
@@ -90,6 +97,9 @@ int run_info(MapStore& store, const CommandOptions& options) {
                      {"keyframes_with_usable_features", counts.usable_features},
                      {"loops_accepted", m.loops_accepted},
                      {"loops_rejected", m.loops_rejected},
+                     {"loops_revoked", m.loops_revoked},
+                     {"ledger_seq", ledger_seq},
+                     {"correction_ledger_seq", correction_seq},
                      {"correction_revision", revision},
                      {"correction_keyframes", correction.value ? correction.value->keys.size() : 0},
                      {"map_clouds", m.map_clouds},

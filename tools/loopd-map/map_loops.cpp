@@ -1,5 +1,6 @@
 // loopd-map loops: the loop decisions a map holds.
 #include <iostream>
+#include <set>
 
 #include "map_commands.hpp"
 #include "tool_output.hpp"
@@ -7,10 +8,10 @@
 namespace loopd::tools {
 namespace {
 
-void add_row(Table& table, const LoopDecision& r) {
+void add_row(Table& table, const LoopDecision& r, bool revoked) {
   const Eigen::Vector3d t = r.T_match_query.translation();
-  table.add({std::to_string(r.event_id), to_string(r.query), to_string(r.match), to_string(r.status), r.stage, score_cell(r.descriptor_distance),
-             score_cell(r.lcp_fraction), score_cell(r.icp_residual), score_cell(r.icp_fitness),
+  table.add({std::to_string(r.event_id), to_string(r.query), to_string(r.match), revoked ? "revoked" : to_string(r.status), r.stage,
+             score_cell(r.descriptor_distance), score_cell(r.lcp_fraction), score_cell(r.icp_residual), score_cell(r.icp_fitness),
              fmt(t.x(), 3) + " " + fmt(t.y(), 3) + " " + fmt(t.z(), 3)});
 }
 
@@ -43,18 +44,32 @@ int run_loops(MapStore& store, const LoopsOptions& loops, const CommandOptions& 
   const bool all = loops.all;
   Table table({"event", "query", "match", "status", "stage", "descriptor", "lcp", "icp residual [m]", "icp fitness", "T_match_query t [m]"});
   nlohmann::json list = nlohmann::json::array();
-  std::int64_t accepted = 0, rejected = 0;
+  std::int64_t accepted = 0, rejected = 0, revoked_count = 0;
+  const StoreResult<std::vector<LoopLedgerEntry>> ledger = store.loop_ledger();
+  if (!ledger.ok()) {
+    std::cerr << "loopd-map: " << ledger.status.message << "\n";
+    return kExitBadInput;
+  }
+  const std::set<std::int64_t> revoked = revoked_loops(ledger.value);
   const StoreStatus read = store.for_each_loop(!all, [&](LoopDecision&& r) {
-    add_row(table, r);
-    if (options.json) list.push_back(loop_json(r));
+    const bool is_revoked = r.accepted() && revoked.count(r.event_id) > 0;
+    add_row(table, r, is_revoked);
+    if (options.json) {
+      nlohmann::json entry = loop_json(r);
+      entry["revoked"] = is_revoked;
+      list.push_back(std::move(entry));
+    }
     ++(r.accepted() ? accepted : rejected);
+    if (is_revoked) ++revoked_count;
   });
   if (!read.ok()) {
     std::cerr << "loopd-map: " << read.message << "\n";
     return kExitBadInput;
   }
-  std::cout << table.str() << accepted << " accepted" << (all ? ", " + std::to_string(rejected) + " rejected" : std::string()) << "\n";
-  if (options.json) print_json_line({{"accepted", accepted}, {"rejected", rejected}, {"all", all}, {"loops", list}});
+  std::cout << table.str() << accepted << " accepted"
+            << (revoked_count > 0 ? " (" + std::to_string(revoked_count) + " of them revoked)" : std::string())
+            << (all ? ", " + std::to_string(rejected) + " rejected" : std::string()) << "\n";
+  if (options.json) print_json_line({{"accepted", accepted}, {"rejected", rejected}, {"revoked", revoked_count}, {"all", all}, {"loops", list}});
   return kExitOk;
 }
 

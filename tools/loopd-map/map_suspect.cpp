@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <iostream>
 #include <map>
+#include <set>
 
 #include "loopd/base/angles.hpp"
 #include "loopd/base/pose.hpp"
@@ -31,9 +32,19 @@ int run_suspect_loops(MapStore& store, int limit, const CommandOptions& options)
   }
   std::map<KeyframeKey, Eigen::Isometry3d> T_map;
   for (const KeyframePose& p : poses.poses) T_map.emplace(p.key, p.T);
+  const StoreResult<std::vector<LoopLedgerEntry>> ledger = store.loop_ledger();
+  if (!ledger.ok()) {
+    std::cerr << "loopd-map: " << ledger.status.message << "\n";
+    return kExitBadInput;
+  }
+  const std::set<std::int64_t> revoked = revoked_loops(ledger.value);
   std::vector<SuspectLoop> loops;
-  std::int64_t without_pose = 0;
+  std::int64_t without_pose = 0, revoked_count = 0;
   const StoreStatus read = store.for_each_loop(true, [&](LoopDecision&& r) {
+    if (revoked.count(r.event_id)) {
+      ++revoked_count;  // dealt with: not in the correction
+      return;
+    }
     const auto q = T_map.find(r.query), m = T_map.find(r.match);
     if (q == T_map.end() || m == T_map.end()) {
       ++without_pose;  // check() reports such a map as damaged
@@ -63,10 +74,12 @@ int run_suspect_loops(MapStore& store, int limit, const CommandOptions& options)
   std::cout << table.str() << shown << " of " << loops.size() + static_cast<std::size_t>(without_pose)
             << " accepted loops, largest residual first, against correction revision " << poses.correction_revision
             << (poses.correction_revision == 0 ? " (none stored: odometry poses)" : "") << "\n";
+  if (revoked_count > 0) std::cout << revoked_count << " revoked loops left out (loopd-map FILE ledger lists them)\n";
   if (without_pose > 0) std::cout << without_pose << " accepted loops name a keyframe the map does not hold (no residual; see check)\n";
   if (options.json)
     print_json_line({{"suspect", true},
-                     {"accepted", static_cast<std::int64_t>(loops.size()) + without_pose},
+                     {"accepted", static_cast<std::int64_t>(loops.size()) + without_pose + revoked_count},
+                     {"revoked", revoked_count},
                      {"correction_revision", poses.correction_revision},
                      {"without_pose", without_pose},
                      {"loops", list}});

@@ -9,11 +9,11 @@ namespace loopd::tools {
 namespace {
 
 /// @brief The whole fleet's map on a PostgreSQL server (unscoped: every vehicle), in read-only transactions.
-ReadOnlyMap open_postgres_read_only(const std::string& uri) {
+ReadOnlyMap open_postgres_read_only(const std::string& uri, bool writable) {
   ReadOnlyMap out;
   MapStoreConfig config;
   config.uri = uri;
-  config.read_only = true;
+  config.read_only = !writable;
   OpenedMapStore opened = open_map_store(config);
   if (!opened.status.ok())
     out.error = opened.status.message;  // names the URI with its password masked
@@ -24,9 +24,9 @@ ReadOnlyMap open_postgres_read_only(const std::string& uri) {
 
 }  // namespace
 
-ReadOnlyMap open_map_read_only(const std::string& path) {
+ReadOnlyMap open_map_read_only(const std::string& path, bool writable) {
   const StoreUri uri = parse_store_uri(path);
-  if (names_shared_map(path)) return open_postgres_read_only(path);
+  if (names_shared_map(path)) return open_postgres_read_only(path, writable);
   ReadOnlyMap out;
   const std::string& file = uri.location;
   if (!uri.is_file()) {
@@ -49,7 +49,7 @@ ReadOnlyMap open_map_read_only(const std::string& path) {
   }
   MapStoreConfig config;
   config.uri = path;
-  config.read_only = true;
+  config.read_only = !writable;
   OpenedMapStore opened = open_map_store(config);
   if (!opened.status.ok()) {
     out.error = opened.status.message.empty() ? "map " + file + ": cannot open (" + to_string(opened.status.code) + ")" : opened.status.message;

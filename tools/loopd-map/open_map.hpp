@@ -15,6 +15,8 @@ struct ReadOnlyMap {
 
 /// @brief Opens `path` ("FILE", "sqlite://FILE" or a "postgresql://" URI: the whole fleet's map) read-only. A missing path, a directory, an empty
 /// file, a file that is not a loopd map and a map of another schema version are errors.
-ReadOnlyMap open_map_read_only(const std::string& path);
+/// @param writable open it for writing instead (the loop ledger, correct): still never created, and a map of an older
+///        schema this build knows is upgraded as loopd upgrades it.
+ReadOnlyMap open_map_read_only(const std::string& path, bool writable = false);
 
 }  // namespace loopd::tools
