@@ -11,6 +11,7 @@
 #include "loopd/pipeline/keyframe_selector.hpp"
 #include "loopd/pipeline/loop_detector.hpp"
 #include "loopd/sim/drive.hpp"
+#include "support/block_revisit_drive.hpp"
 
 using namespace loopd;
 
@@ -27,14 +28,7 @@ struct Step {
 
 /// A block lap and its revisit (simulated VLP-16, instantaneous scans: every keyframe step is measured by the scans).
 std::vector<Step> keyframes_of_drive(const LoopDetectorConfig& config) {
-  DriveConfig dc;
-  dc.sensor = "vlp16";
-  dc.route = "block";
-  dc.num_scans = 340;
-  dc.seed = 23;
-  dc.effects.motion_skew = false;
-  const Drive drive = make_drive(dc);
-  REQUIRE(drive.error.empty());
+  const Drive drive = test::block_revisit_drive();
   LoopDetector features(config);
   KeyframeSelector selector(config.keyframe);
   std::vector<Step> steps;

@@ -8,6 +8,7 @@
 #include "loopd/runtime/loopd_engine.hpp"
 #include "loopd/runtime/map_writer.hpp"
 #include "loopd/sim/drive.hpp"
+#include "support/block_revisit_drive.hpp"
 #include "support/temp_dir.hpp"
 
 using namespace loopd;
@@ -78,14 +79,7 @@ void replay(LoopdEngine& engine, const Drive& drive) {
 }  // namespace
 
 TEST_CASE("engine: a loop revoked in the map while the drive runs leaves the graph at the next keyframe and stays out") {
-  DriveConfig dc;
-  dc.sensor = "vlp16";
-  dc.route = "block";
-  dc.num_scans = 340;
-  dc.seed = 23;
-  dc.effects.motion_skew = false;
-  const Drive drive = make_drive(dc);
-  REQUIRE(drive.error.empty());
+  const Drive drive = test::block_revisit_drive();
   test::TempDir dir;
   const std::string path = dir.file("map.db");
   auto store = open_map(path);
@@ -130,36 +124,35 @@ TEST_CASE("engine: a loop revoked in the map while the drive runs leaves the gra
   CHECK(stored.value->ledger_seq == 1);
   CHECK(store->stats().value.loops_revoked == 1);
 
-  SECTION("a restart finds the correction as new as the ledger: nothing is solved again, the loop stays out") {
-    Operator later;
-    later.store = operator_connection.get();
-    later.revoke_at = 1000000;
-    MapWriter writer(*store, later, 100);
+  // A restart on the map: an engine that only resumes, its corrections kept by `later` (which revokes nothing).
+  Operator later;
+  later.store = operator_connection.get();
+  later.revoke_at = 1000000;
+  const auto restart = [&](MapWriter& writer) {
     LoopdEngine engine(drive_config(), &writer);
     const ResumeSummary resumed = engine.resume(*store, true);
     INFO(resumed.error);
     REQUIRE(resumed.ok);
+    REQUIRE(writer.flush(5.0));
+    return resumed;
+  };
+  SECTION("a restart finds the correction as new as the ledger: nothing is solved again, the loop stays out") {
+    MapWriter writer(*store, later, 100);
+    const ResumeSummary resumed = restart(writer);
     CHECK_FALSE(resumed.ledger_corrected);
     CHECK(resumed.loops_revoked == 1);
     CHECK(resumed.corrections.empty());
   }
   SECTION("a restore entered while loopd was stopped is applied at start: the loop is back in the graph") {
     REQUIRE(operator_connection->put_ledger_entry(entry(op.revoked_event, false)).ok());
-    Operator later;
-    later.store = operator_connection.get();
-    later.revoke_at = 1000000;
     MapWriter writer(*store, later, 100);
-    LoopdEngine engine(drive_config(), &writer);
-    const ResumeSummary resumed = engine.resume(*store, true);
-    INFO(resumed.error);
-    REQUIRE(resumed.ok);
+    const ResumeSummary resumed = restart(writer);
     CHECK(resumed.ledger_corrected);
     CHECK(resumed.loops_revoked == 0);
     REQUIRE(later.corrections.size() == 1);
     CHECK(later.corrections[0].method == "ledger");
     CHECK(later.corrections[0].ledger_seq == 2);
     CHECK(later.corrections[0].loops == accepted_total);  // every accepted loop, the restored one too
-    REQUIRE(writer.flush(5.0));
     const auto now = store->correction();
     REQUIRE(now.ok());
     REQUIRE(now.value);
