@@ -90,7 +90,8 @@ int run_correct(MapStore& store, const CorrectOptions& correct, const CommandOpt
   std::int64_t compared = 0;
   if (before.value) {
     std::map<KeyframeKey, Eigen::Vector3d> old_position;
-    for (std::size_t i = 0; i < before.value->keys.size(); ++i) old_position.emplace(before.value->keys[i], before.value->T_map_sensor[i].translation());
+    for (std::size_t i = 0; i < before.value->keys.size(); ++i)
+      old_position.emplace(before.value->keys[i], before.value->T_map_sensor[i].translation());
     for (std::size_t i = 0; i < c->keys.size(); ++i) {
       const auto it = old_position.find(c->keys[i]);
       if (it == old_position.end()) continue;

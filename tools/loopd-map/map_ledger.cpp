@@ -36,7 +36,8 @@ std::string utc_time(std::int64_t utime) {
 }
 
 nlohmann::json entry_json(const LoopLedgerEntry& e) {
-  return {{"seq", e.seq}, {"event_id", e.event_id}, {"action", e.revoked ? "revoke" : "restore"}, {"who", e.who}, {"reason", e.reason}, {"utime", e.utime}};
+  return {{"seq", e.seq}, {"event_id", e.event_id}, {"action", e.revoked ? "revoke" : "restore"},
+          {"who", e.who}, {"reason", e.reason},     {"utime", e.utime}};
 }
 
 }  // namespace
@@ -78,8 +79,9 @@ int run_ledger(MapStore& store, const CommandOptions& options) {
   }
   const std::set<std::int64_t> revoked = revoked_loops(ledger.value);
   const std::int64_t honoured = correction.value ? correction.value->ledger_seq : 0;
-  std::cout << table.str() << ledger.value.size() << " entries, " << revoked.size() << " loops revoked now; the stored correction honours entries up to "
-            << honoured << (honoured < newest_seq(ledger.value) ? " (older than the ledger: run correct)" : "") << "\n";
+  std::cout << table.str() << ledger.value.size() << " entries, " << revoked.size()
+            << " loops revoked now; the stored correction honours entries up to " << honoured
+            << (honoured < newest_seq(ledger.value) ? " (older than the ledger: run correct)" : "") << "\n";
   if (options.json)
     print_json_line({{"entries", list},
                      {"revoked", std::vector<std::int64_t>(revoked.begin(), revoked.end())},

@@ -17,7 +17,8 @@ std::optional<LedgerState> LedgerWatch::poll() {
   next_poll_ = now + period_;
   StoreResult<std::vector<LoopLedgerEntry>> news = store_.loop_ledger(newest_seq(entries_));
   if (!news.ok()) {
-    if (!read_failed_logged_) std::fprintf(stderr, "loopd: cannot read the loop ledger (tried again every period): %s\n", news.status.message.c_str());
+    if (!read_failed_logged_)
+      std::fprintf(stderr, "loopd: cannot read the loop ledger (tried again every period): %s\n", news.status.message.c_str());
     read_failed_logged_ = true;
     return std::nullopt;
   }
