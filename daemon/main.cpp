@@ -85,7 +85,7 @@ int main(int argc, char** argv) {
       "(M2DP + plane-based 4PCS + GICP + Hungarian check), publishes loop events and corrected trajectories."};
   std::string lcm_url, config_path, replay_log, output_log, sensor, map_path;
   int threads = -1, vehicle = -2;
-  bool print_config = false, quiet = false;
+  bool print_config = false, quiet = false, localize = false;
   app.set_version_flag("--version", std::string("loopd ") + LOOPD_VERSION);
   app.add_option("--lcm-url", lcm_url, "LCM URL to listen and publish on (default from config: udpm://239.255.76.67:7667?ttl=0)");
   app.add_option("--config", config_path, "YAML config file (see loopd.example.yaml); unknown or wrong fields are refused")->check(CLI::ExistingFile);
@@ -100,6 +100,9 @@ int main(int argc, char** argv) {
   app.add_option("--vehicle", vehicle,
                  "fleet vehicle number (0-2146) on a shared postgresql:// map: its sessions, the others' keyframes as loop "
                  "candidates, one joint correction (overrides fleet.vehicle)");
+  app.add_flag("--localize", localize,
+               "with --map: localize in the map without changing it (opened read-only; this run's keyframes stay in memory; "
+               "overrides map.localize)");
   app.add_flag("--print-config", print_config, "print the effective configuration as YAML and exit");
   app.add_flag("--quiet", quiet, "no log line per accepted loop");
   try {
@@ -122,6 +125,7 @@ int main(int argc, char** argv) {
   if (threads >= 0) config.engine.num_threads = threads;
   if (!map_path.empty()) config.node.map.uri = map_path;
   if (vehicle != -2) config.node.fleet.vehicle = vehicle;
+  if (localize) config.node.localize = true;
   config.node.quiet = quiet;
   loopd::apply_fleet(&config);
   if (auto e = config.node.validate()) {

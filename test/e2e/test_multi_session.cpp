@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -106,6 +108,11 @@ loopd::status_t last_status(const fs::path& output) {
   return last;
 }
 
+std::string file_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
 nlohmann::json map_info(const std::string& map) {
   return nlohmann::json::parse(loopd::test::last_line(run(kBin + "/tools/loopd-map/loopd-map --json '" + map + "' info")));
 }
@@ -126,10 +133,34 @@ TEST_CASE("a second drive through the same town is aligned to the first one's ma
   simulate(d / "s1.lcmlog", 3, 1, 800);
   replay(d / "s1.lcmlog", d / "o1.lcmlog", d / "map.db");
   fs::copy_file(d / "map.db", d / "other.db");
+  simulate(d / "s2.lcmlog", 3, 2, 400);  // same town, driven the other way round from elsewhere (session 2 of the same seed)
+  simulate(d / "x2.lcmlog", 4, 2, 400);  // another town (another seed)
 
-  // Two blocks, not SECTIONs: Catch2 would run the 800-scan first drive again for each section.
-  {  // same town, driven the other way round from elsewhere (session 2 of the same seed)
-    simulate(d / "s2.lcmlog", 3, 2, 400);
+  // Blocks, not SECTIONs: Catch2 would run the 800-scan first drive again for each section.
+  {  // --localize: both drives placed in the map without changing it (opened read-only, their keyframes in memory only)
+    const std::string before = file_bytes(d / "map.db");
+    run(kBin + "/daemon/loopd --sensor vlp16 --quiet --localize --replay " + (d / "s2.lcmlog").string() + " --output " + (d / "l2.lcmlog").string() +
+        " --map " + (d / "map.db").string());
+    nlohmann::json j = evaluate("--drive " + (d / "s1.lcmlog").string() + " --drive " + (d / "s2.lcmlog").string() + " --results " +
+                                (d / "o1.lcmlog").string() + " --results " + (d / "l2.lcmlog").string());
+    INFO(j.dump(1));
+    CHECK(j["sessions_aligned"] == 1);
+    CHECK(j["inter_session_loops_correct"] == j["inter_session_loops_accepted"]);
+    CHECK(j["session_alignment_error_m"].get<double>() < 0.2);
+    CHECK(j["session_alignment_error_deg"].get<double>() < 1.0);
+    CHECK(j["session_alignment_distance_m"].get<double>() < 30.0);
+    run(kBin + "/daemon/loopd --sensor vlp16 --quiet --localize --replay " + (d / "x2.lcmlog").string() + " --output " + (d / "lx2.lcmlog").string() +
+        " --map " + (d / "map.db").string());
+    j = evaluate("--drive " + (d / "s1.lcmlog").string() + " --drive " + (d / "x2.lcmlog").string() + " --results " + (d / "o1.lcmlog").string() +
+                 " --results " + (d / "lx2.lcmlog").string());
+    INFO(j.dump(1));
+    CHECK(j["inter_session_loops_accepted"] == 0);  // never localized in a town it has not mapped
+    CHECK(j["sessions_aligned"] == 0);
+    CHECK(file_bytes(d / "map.db") == before);  // the map, byte for byte
+    CHECK(map_info((d / "map.db").string())["sessions"] == 1);
+  }
+
+  {  // same town, replayed onto the map (a second session stored in it)
     replay(d / "s2.lcmlog", d / "o2.lcmlog", d / "map.db");
     const nlohmann::json j = evaluate("--drive " + (d / "s1.lcmlog").string() + " --drive " + (d / "s2.lcmlog").string() + " --results " +
                                       (d / "o1.lcmlog").string() + " --results " + (d / "o2.lcmlog").string());
@@ -145,7 +176,6 @@ TEST_CASE("a second drive through the same town is aligned to the first one's ma
   }
 
   {  // another town (another seed): no loop between the sessions
-    simulate(d / "x2.lcmlog", 4, 2, 400);
     replay(d / "x2.lcmlog", d / "ox2.lcmlog", d / "other.db");
     const nlohmann::json j = evaluate("--drive " + (d / "s1.lcmlog").string() + " --drive " + (d / "x2.lcmlog").string() + " --results " +
                                       (d / "o1.lcmlog").string() + " --results " + (d / "ox2.lcmlog").string());

@@ -294,10 +294,10 @@ void LoopdEngine::handle_associated(std::vector<AssociatedScan> scans) {
   }
 }
 
-ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes) {
+ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes, bool read_only) {
   // Planes need every keyframe's segmentation back; otherwise descriptors suffice when the store keeps the features.
   const bool thin = features_in_store_ && !config_.detector.correction.graph.use_plane_constraints;
-  ResumeSummary r = resume_detector(store, detector_, thin ? KeyframeLoad::kDescriptor : KeyframeLoad::kFull);
+  ResumeSummary r = resume_detector(store, detector_, thin ? KeyframeLoad::kDescriptor : KeyframeLoad::kFull, read_only);
   if (!r.ok) return r;
   session_keys_.restore(r.stored, skip_stored_keyframes);
   for (const CorrectionOutput& c : r.corrections) sink_->on_correction(c);

@@ -196,7 +196,8 @@ class LoopdEngine {
   /// @brief Before any input: continues from what `store` holds (the detector as it was, keyframe numbering after the
   /// stored ones; corrections the stop cut off are made again and go to the sink). With skip_stored_keyframes (replay
   /// of the same drive) the keyframes the map already holds are recognised by their scan times and not processed again.
-  ResumeSummary resume(MapStore& store, bool skip_stored_keyframes);
+  /// `read_only`: the store is never written (resume_detector).
+  ResumeSummary resume(MapStore& store, bool skip_stored_keyframes, bool read_only = false);
   /// @brief Before any input and resume(): keyframe features live in `store` and in an LRU cache of `cache_bytes`
   /// (the sequential stage reads candidates back; the store must then be used from that stage only).
   void keep_features_in_store(MapStore& store, std::size_t cache_bytes);

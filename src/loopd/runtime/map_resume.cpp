@@ -68,7 +68,7 @@ std::optional<std::string> restore_decisions(const KeyframeKey& query, const std
 
 }  // namespace
 
-ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeLoad load) {
+ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeLoad load, bool read_only) {
   Stopwatch sw;
   ResumeSummary summary;
   // The decisions of the keyframes a stop cut off were committed, so they may have been published: read them before
@@ -78,7 +78,7 @@ ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeL
     summary.error = *e;
     return summary;
   }
-  const StoreResult<std::int64_t> dropped = store.drop_undecided();
+  const StoreResult<std::int64_t> dropped = read_only ? StoreResult<std::int64_t>{} : store.drop_undecided();
   if (!dropped.ok()) {
     summary.error = dropped.status.message;
     return summary;

@@ -37,6 +37,8 @@ struct ResumeSummary {
 /// Keyframes whose decisions were not all stored are removed from the map first (they are processed again).
 /// @param load kFull: every keyframe's prepared scan comes back into memory; kDescriptor: only descriptors (the detector
 ///        keeps its features in the store and reads candidates back, LoopDetector::keep_features_in_store).
-ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeLoad load = KeyframeLoad::kFull);
+/// @param read_only nothing is written (a map opened read-only to localize in): keyframes a stop cut off stay, restored
+///        with the decisions they have.
+ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeLoad load = KeyframeLoad::kFull, bool read_only = false);
 
 }  // namespace loopd

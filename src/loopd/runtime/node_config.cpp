@@ -31,6 +31,8 @@ std::optional<std::string> NodeConfig::validate() const {
   if (max_buffered_keyframes < 1) return "map.max_buffered_keyframes must be >= 1";
   if (!(map_retry_period >= 0.1 && map_retry_period <= 600.0)) return "map.retry_period must be in [0.1, 600] s";
   if (!(ledger_poll >= 0.1 && ledger_poll <= 600.0)) return "map.ledger_poll must be in [0.1, 600] s";
+  if (localize && map.uri.empty()) return "map.localize (--localize) needs a map (map.path / --map)";
+  if (localize && names_shared_map(map.uri)) return "map.localize works on an SQLite map for now, not on a shared postgresql:// map";
   return std::nullopt;
 }
 
@@ -53,6 +55,7 @@ void bind(Binder& b, NodeConfig& n) {
   b.field("map.max_buffered_keyframes", n.max_buffered_keyframes);
   b.field("map.retry_period", n.map_retry_period);
   b.field("map.ledger_poll", n.ledger_poll);
+  b.field("map.localize", n.localize);
   b.field("fleet.vehicle", n.fleet.vehicle);
   b.field("fleet.poll_interval", n.fleet.poll_interval);
   b.field("fleet.solve_every_keyframes", n.fleet.solve_every_keyframes);

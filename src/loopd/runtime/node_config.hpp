@@ -48,6 +48,9 @@ struct NodeConfig {
   std::int64_t max_buffered_keyframes = 5000;  ///< map.max_buffered_keyframes: writes kept while the map server is away
   double map_retry_period = 2.0;               ///< map.retry_period [s]: the longest pause between tries of writes waiting for the map
   double ledger_poll = 1.0;  ///< map.ledger_poll [s]: how often a running loopd reads the map's loop ledger (loopd-map loops --revoke)
+  /// map.localize (--localize): the map is opened read-only and never changed; this run's keyframes are placed in it
+  /// by loops to its keyframes (found without a pose prior, then gated) and published as a new session, in memory only.
+  bool localize = false;
   std::optional<std::string> validate() const;
 };
 

@@ -52,7 +52,9 @@ NodeRuntime::~NodeRuntime() = default;
 
 bool NodeRuntime::open_map() {
   if (node_.map.uri.empty()) return true;
-  OpenedMapStore opened = open_map_store(node_.map);
+  MapStoreConfig map = node_.map;
+  map.read_only = map.read_only || node_.localize;  // localize: the map is never changed
+  OpenedMapStore opened = open_map_store(map);
   if (!opened.status.ok()) {
     std::cerr << "loopd: cannot use the map: " << opened.status.message << std::endl;
     return false;
@@ -60,12 +62,16 @@ bool NodeRuntime::open_map() {
   store_ = std::move(opened.store);
   const StoreResult<MapStats> stats = store_->stats();
   holds_keyframes_ = stats.ok() && stats.value.keyframes > 0;
+  if (node_.localize && !holds_keyframes_) {
+    std::cerr << "loopd: --localize: map " << store_->uri() << " holds no keyframes to localize in" << std::endl;
+    return false;
+  }
   return true;
 }
 
 bool NodeRuntime::start(const EngineConfig& config, EngineSink& output, const std::string& origin, bool skip_stored_keyframes) {
   EngineSink* first = &output;
-  if (store_) {
+  if (store_ && !node_.localize) {
     // The writer commits each record before passing it on; the republish filter keeps a resumed run from publishing
     // a decision twice; in a fleet the joint correction is published, not the detector's.
     if (node_.fleet.vehicle >= 0) fleet_output_ = std::make_unique<LocalCorrectionFilter>(output);
@@ -84,23 +90,26 @@ bool NodeRuntime::start(const EngineConfig& config, EngineSink& output, const st
   }
   engine_ = std::make_unique<LoopdEngine>(config, first);
   if (store_) {
-    // The engine reads keyframes' prepared scans back from the map (bounded cache) and stores map clouds there.
+    // The engine reads keyframes' prepared scans back from the map (bounded cache) and stores map clouds there. To
+    // localize, the run's own keyframes live in the cache only (nothing is written), and no map cloud is made.
     if (node_.map_cache_mb > 0.0) engine_->keep_features_in_store(*store_, static_cast<std::size_t>(node_.map_cache_mb * 1048576.0));
-    engine_->make_map_clouds();
+    if (!node_.localize) engine_->make_map_clouds();
   }
   return resume(config, origin, skip_stored_keyframes) && join_fleet(config, output);
 }
 
 bool NodeRuntime::resume(const EngineConfig& config, const std::string& origin, bool skip_stored_keyframes) {
   if (!store_) return true;
-  if (!ensure_session(*store_, config.sessions.first_session, config.detector.sensor, origin)) return false;
-  const ResumeSummary r = engine_->resume(*store_, skip_stored_keyframes);
+  if (!node_.localize && !ensure_session(*store_, config.sessions.first_session, config.detector.sensor, origin)) return false;
+  const ResumeSummary r = engine_->resume(*store_, skip_stored_keyframes, node_.localize);
   if (!r.ok) {
     std::cerr << "loopd: " << r.error << std::endl;
     return false;
   }
-  republish_->expect(r.cut_off_published);
+  if (republish_) republish_->expect(r.cut_off_published);
   log_resume(*store_, r);
+  if (node_.localize && log_enabled(LogLevel::kInfo))
+    std::fprintf(stderr, "loopd: localizing in %s (read-only): this run's keyframes are a new session, in memory only\n", store_->uri().c_str());
   // Revocations entered while loopd runs reach the detector within map.ledger_poll (read on the sequential stage,
   // which owns the store).
   ledger_ = std::make_unique<LedgerWatch>(*store_, r.ledger, node_.ledger_poll);
