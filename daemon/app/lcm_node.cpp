@@ -48,7 +48,16 @@ class OutputSink : public EngineSink {
  public:
   OutputSink(const NodeConfig& node, lcm::LCM* lcm, LogWriter* log, bool data_time) : node_(node), lcm_(lcm), log_(log), data_time_(data_time) {}
 
+  void on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor, const MapCloudBlob&) override {
+    if (node_.localize) localization_.on_keyframe(keyframe, T_map_sensor);
+  }
+  void on_keyframe_decided(const KeyframeKey& keyframe) override {
+    if (!node_.localize) return;
+    if (const std::optional<LocalizationState> s = localization_.on_keyframe_decided(keyframe))
+      publish(node_.localization_channel, data_time_ ? s->utime : wall_utime(), to_message(*s));
+  }
   void on_decision(const LoopDecision& d) override {
+    if (node_.localize) localization_.on_decision(d);
     const std::int64_t t = data_time_ ? d.query_utime : wall_utime();
     publish(node_.loop_event_channel, t, to_message(d, t));
     if (!node_.quiet && d.status == LoopStatus::kAccepted && log_enabled(LogLevel::kInfo))
@@ -58,6 +67,7 @@ class OutputSink : public EngineSink {
     last_data_utime_ = d.query_utime;
   }
   void on_correction(const CorrectionOutput& c) override {
+    if (node_.localize) localization_.on_correction(c);
     const std::int64_t t = data_time_ ? last_data_utime_.load() : wall_utime();
     publish(node_.trajectory_channel, t, trajectory_.make_message(c, t));
   }
@@ -88,6 +98,7 @@ class OutputSink : public EngineSink {
   LogWriter* log_;
   bool data_time_;
   TrajectoryPublisher trajectory_{node_.trajectory_output};
+  LocalizationTracker localization_;  ///< --localize: where this run lies in the map, published per keyframe
   std::mutex mutex_;
   std::int64_t written_ = 0;
   std::atomic<std::int64_t> last_data_utime_{0};  ///< the fleet thread publishes joint corrections at it

@@ -44,6 +44,22 @@ keyframe_pose_t to_keyframe_pose(std::int64_t id, std::int64_t utime, const Eige
   return k;
 }
 
+localization_t to_message(const LocalizationState& s) {
+  localization_t m{};
+  m.utime = s.utime;
+  m.session = static_cast<int32_t>(s.keyframe.session);
+  m.keyframe_id = s.keyframe.index;
+  m.localized = s.localized;
+  m.localized_since_utime = s.localized_since_utime;
+  m.loops_to_map = static_cast<int32_t>(std::min<std::int64_t>(s.loops_to_map, INT32_MAX));
+  m.last_loop_utime = s.last_loop_utime;
+  for (int i = 0; i < 16; ++i) m.T_map_odom[i] = s.T_map_odom.matrix()(i / 4, i % 4);
+  const keyframe_pose_t pose = to_keyframe_pose(s.keyframe.index, s.utime, s.T_map_sensor);
+  for (int j = 0; j < 3; ++j) m.position[j] = pose.position[j];
+  for (int j = 0; j < 4; ++j) m.orientation[j] = pose.orientation[j];
+  return m;
+}
+
 trajectory_t to_message(const CorrectionOutput& c, std::int64_t utime) {
   trajectory_t m = to_message_header(c, utime);
   m.num_keyframes = static_cast<int32_t>(c.T_map_sensor.size());

@@ -2,11 +2,13 @@
 #include <string>
 #include <vector>
 
+#include <loopd/localization_t.hpp>
 #include <loopd/loop_event_t.hpp>
 #include <loopd/status_t.hpp>
 #include <loopd/trajectory_t.hpp>
 
 #include "loop_event_convert.hpp"
+#include "loopd/runtime/localization_tracker.hpp"
 #include "loopd/runtime/loopd_engine.hpp"
 #include "loopd/runtime/node_runtime.hpp"
 
@@ -16,6 +18,8 @@ namespace loopd {
 trajectory_t to_message(const CorrectionOutput& c, std::int64_t utime);
 /// @brief trajectory_t for one correction without keyframes (revision, event, method, T_map_odom; full = false).
 trajectory_t to_message_header(const CorrectionOutput& c, std::int64_t utime);
+/// @brief localization_t of one keyframe of a run localizing in a map (loopd --localize).
+localization_t to_message(const LocalizationState& s);
 /// @brief One keyframe's corrected pose: position and unit quaternion (w, x, y, z).
 keyframe_pose_t to_keyframe_pose(std::int64_t id, std::int64_t utime, const Eigen::Isometry3d& T_map_sensor);
 

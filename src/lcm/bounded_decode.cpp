@@ -60,6 +60,19 @@ void walk(WireWalker& w, const DecodeLimits&, const keyframe_pose_t*) {
 }
 constexpr std::size_t kKeyframePoseBytes = 8 + 8 + 3 * 8 + 4 * 8;
 
+void walk(WireWalker& w, const DecodeLimits&, const localization_t*) {
+  w.skip("utime", 8);
+  w.skip("session", 4);
+  w.skip("keyframe_id", 8);
+  w.skip("localized", 1);
+  w.skip("localized_since_utime", 8);
+  w.skip("loops_to_map", 4);
+  w.skip("last_loop_utime", 8);
+  w.skip("T_map_odom", 8, 16);
+  w.skip("position", 8, 3);
+  w.skip("orientation", 8, 4);
+}
+
 /// trajectory_t up to its keyframes: the whole of version 1 (before `full` and `total_keyframes` were appended).
 /// Returns num_keyframes.
 std::int64_t walk_trajectory_v1(WireWalker& w, const DecodeLimits& limits) {
@@ -183,6 +196,7 @@ template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimit
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, imu_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, loop_event_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, keyframe_pose_t*);
+template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, localization_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, trajectory_t*);
 template DecodeResult decode_bounded(const void*, std::size_t, const DecodeLimits&, session_alignment_t*);
 

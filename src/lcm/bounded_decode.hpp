@@ -10,6 +10,7 @@
 #include <loopd/point_cloud_t.hpp>
 #include <loopd/pose_t.hpp>
 #include <loopd/session_alignment_t.hpp>
+#include <loopd/localization_t.hpp>
 #include <loopd/status_t.hpp>
 #include <loopd/trajectory_t.hpp>
 
@@ -38,7 +39,7 @@ struct DecodeResult {
 ///        checking the fingerprint, every declared length against the bytes present and against `limits`, and that
 ///        nothing trails the message; only then does it run LCM's decoder (inside a try block). Never throws.
 ///        Supported: point_cloud_t, pose_t, imu_t, loop_event_t, trajectory_t, status_t, keyframe_pose_t, channel_stats_t,
-///        session_alignment_t.
+///        session_alignment_t, localization_t.
 template <typename Msg>
 DecodeResult decode_bounded(const void* data, std::size_t size, const DecodeLimits& limits, Msg* out);
 

@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -13,6 +14,7 @@
 #include <string>
 #include <unistd.h>
 
+#include <loopd/localization_t.hpp>
 #include <loopd/loop_event_t.hpp>
 #include <loopd/pose_t.hpp>
 #include <loopd/status_t.hpp>
@@ -108,6 +110,20 @@ loopd::status_t last_status(const fs::path& output) {
   return last;
 }
 
+/// Every localization_t of an output log (loopd --localize), in order.
+std::vector<loopd::localization_t> localizations(const fs::path& output) {
+  std::vector<loopd::localization_t> out;
+  loopd::LogReader reader;
+  std::string error;
+  REQUIRE(reader.open(output.string(), &error));
+  loopd::LogEvent e;
+  while (reader.next(&e)) {
+    loopd::localization_t m;
+    if (e.channel == "LOOPD_LOCALIZATION" && loopd::decode_bounded(e.data.data(), e.data.size(), loopd::DecodeLimits{}, &m).ok) out.push_back(m);
+  }
+  return out;
+}
+
 std::string file_bytes(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
@@ -149,6 +165,38 @@ TEST_CASE("a second drive through the same town is aligned to the first one's ma
     CHECK(j["session_alignment_error_m"].get<double>() < 0.2);
     CHECK(j["session_alignment_error_deg"].get<double>() < 1.0);
     CHECK(j["session_alignment_distance_m"].get<double>() < 30.0);
+    // localization_t after every keyframe: localized from some keyframe on, its poses near the drive's ground truth (the
+    // map frame is the first drive's, which starts at ground truth).
+    const std::vector<loopd::localization_t> placed = localizations(d / "l2.lcmlog");
+    const auto truth = ground_truth(d / "s2.lcmlog");
+    REQUIRE(placed.size() >= 100);
+    CHECK(placed.back().localized);
+    CHECK(placed.back().loops_to_map >= 10);
+    int localized = 0;
+    std::vector<double> error_m, error_deg;
+    for (const loopd::localization_t& m : placed) {
+      CHECK(m.session == placed.front().session);
+      if (!m.localized) continue;
+      ++localized;
+      CHECK(m.localized_since_utime == placed.back().localized_since_utime);
+      const auto gt = truth.find(m.utime);
+      REQUIRE(gt != truth.end());
+      const Eigen::Quaterniond q(m.orientation[0], m.orientation[1], m.orientation[2], m.orientation[3]);
+      error_m.push_back((Eigen::Vector3d(m.position[0], m.position[1], m.position[2]) - gt->second.translation()).norm());
+      error_deg.push_back(Eigen::AngleAxisd(gt->second.linear().transpose() * q.toRotationMatrix()).angle() * 180.0 / M_PI);
+    }
+    std::sort(error_m.begin(), error_m.end());
+    std::sort(error_deg.begin(), error_deg.end());
+    REQUIRE(error_m.size() >= 20);
+    const std::size_t p95 = error_m.size() * 95 / 100;
+    INFO(localized << " of " << placed.size() << " keyframes localized; pose error median " << error_m[error_m.size() / 2] << " m / "
+                   << error_deg[error_deg.size() / 2] << " deg, p95 " << error_m[p95] << " m / " << error_deg[p95] << " deg, max " << error_m.back()
+                   << " m / " << error_deg.back() << " deg");
+    CHECK(localized >= static_cast<int>(placed.size()) * 3 / 4);
+    // Measured: median 0.24 m / 0.27 deg, p95 0.29 m / 0.42 deg, max 0.34 m / 0.50 deg. The pose is the map's: its own
+    // keyframes' error against ground truth comes with it (issue 33's 0.2 m target is not met yet; docs/sessions.md).
+    CHECK(error_m[p95] < 0.35);
+    CHECK(error_deg[p95] < 1.0);
     run(kBin + "/daemon/loopd --sensor vlp16 --quiet --localize --replay " + (d / "x2.lcmlog").string() + " --output " + (d / "lx2.lcmlog").string() +
         " --map " + (d / "map.db").string());
     j = evaluate("--drive " + (d / "s1.lcmlog").string() + " --drive " + (d / "x2.lcmlog").string() + " --results " + (d / "o1.lcmlog").string() +
@@ -156,7 +204,10 @@ TEST_CASE("a second drive through the same town is aligned to the first one's ma
     INFO(j.dump(1));
     CHECK(j["inter_session_loops_accepted"] == 0);  // never localized in a town it has not mapped
     CHECK(j["sessions_aligned"] == 0);
-    CHECK(file_bytes(d / "map.db") == before);  // the map, byte for byte
+    const std::vector<loopd::localization_t> elsewhere = localizations(d / "lx2.lcmlog");
+    CHECK(elsewhere.size() >= 100);
+    for (const loopd::localization_t& m : elsewhere) CHECK_FALSE(m.localized);  // and says so
+    CHECK(file_bytes(d / "map.db") == before);                                  // the map, byte for byte
     CHECK(map_info((d / "map.db").string())["sessions"] == 1);
   }
 

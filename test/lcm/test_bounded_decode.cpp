@@ -135,6 +135,20 @@ trajectory_t sample_trajectory(int n) {
   return t;
 }
 
+localization_t sample_localization() {
+  localization_t m{};
+  m.utime = 1700000000000000;
+  m.session = 2;
+  m.keyframe_id = 41;
+  m.localized = true;
+  m.localized_since_utime = 1699999999000000;
+  m.loops_to_map = 12;
+  m.T_map_odom[0] = m.T_map_odom[5] = m.T_map_odom[10] = m.T_map_odom[15] = 1.0;
+  m.position[2] = -0.5;
+  m.orientation[0] = 1.0;
+  return m;
+}
+
 loop_event_t sample_event() {
   loop_event_t e{};
   e.stage = "verify";
@@ -201,6 +215,13 @@ TEST_CASE("every message type decodes through decode_bounded exactly as LCM enco
   bytes = encode(pose);
   REQUIRE(decode_bounded(bytes.data(), bytes.size(), DecodeLimits{}, &pose_out).ok);
   CHECK(pose_out.position[1] == 2.5);
+
+  localization_t localization_out;
+  bytes = encode(sample_localization());
+  REQUIRE(decode_bounded(bytes.data(), bytes.size(), DecodeLimits{}, &localization_out).ok);
+  CHECK(localization_out.localized);
+  CHECK(localization_out.loops_to_map == 12);
+  CHECK(localization_out.position[2] == -0.5);
 }
 
 TEST_CASE("the crafted scans that stopped the daemon are refused with the field and the byte offset") {
@@ -283,6 +304,7 @@ TEST_CASE("every truncation and 2000 random byte flips of every message type are
   check_truncations_and_flips(sample_status());
   check_truncations_and_flips(sample_trajectory(2));
   check_truncations_and_flips(sample_event());
+  check_truncations_and_flips(sample_localization());
   pose_t pose{};
   pose.orientation[0] = 1;
   check_truncations_and_flips(pose);

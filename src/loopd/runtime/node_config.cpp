@@ -16,7 +16,7 @@ std::optional<std::string> TrajectoryPublisherConfig::validate() const {
 
 std::optional<std::string> NodeConfig::validate() const {
   if (lcm_url.empty()) return "lcm_url must not be empty";
-  for (const auto* c : {&scan_channel, &pose_channel, &imu_channel, &loop_event_channel, &trajectory_channel, &status_channel})
+  for (const auto* c : {&scan_channel, &pose_channel, &imu_channel, &loop_event_channel, &trajectory_channel, &status_channel, &localization_channel})
     if (c->empty()) return "channels: channel names must not be empty";
   if (input_queue_capacity < 1) return "input_queue_capacity must be >= 1";
   if (log_every_n < 1) return "log_every_n must be >= 1";
@@ -44,6 +44,7 @@ void bind(Binder& b, NodeConfig& n) {
   b.field("channels.loop_event", n.loop_event_channel);
   b.field("channels.trajectory", n.trajectory_channel);
   b.field("channels.status", n.status_channel);
+  b.field("channels.localization", n.localization_channel);
   b.field("input_queue_capacity", n.input_queue_capacity);
   b.field("log_every_n", n.log_every_n);
   b.field("status_period", n.status_period);

@@ -28,9 +28,10 @@ struct NodeConfig {
   std::string loop_event_channel = "LOOP_EVENT";
   std::string trajectory_channel = "CORRECTED_TRAJECTORY";
   std::string status_channel = "LOOPD_STATUS";
-  int input_queue_capacity = 256;  ///< decoded messages waiting for the ingest thread (live); beyond it they are dropped
-  int log_every_n = 100;           ///< a repeated anomaly is logged on its 1st, (N+1)th, ... occurrence
-  double status_period = 1.0;      ///< [s] status_t period (and the systemd STATUS= line's)
+  std::string localization_channel = "LOOPD_LOCALIZATION";  ///< localization_t per keyframe (--localize only)
+  int input_queue_capacity = 256;                           ///< decoded messages waiting for the ingest thread (live); beyond it they are dropped
+  int log_every_n = 100;                                    ///< a repeated anomaly is logged on its 1st, (N+1)th, ... occurrence
+  double status_period = 1.0;                               ///< [s] status_t period (and the systemd STATUS= line's)
   /// [s] under systemd (WATCHDOG_USEC): WATCHDOG=1 pings stop when a pipeline stage has had work waiting this long
   /// without progress; systemd then restarts loopd after WatchdogSec=. Longer than the longest legitimate step: a
   /// pose-graph solve took up to ~20 s on 20,000 keyframes of a lap visited 45 times (max_nodes 4000).
