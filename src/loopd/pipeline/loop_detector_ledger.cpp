@@ -1,50 +1,42 @@
 // LoopDetector: the loop ledger's revocations (an operator took an accepted loop back, or restored it).
 #include "loopd/pipeline/loop_detector.hpp"
 
-#include <algorithm>
+#include <map>
 
 namespace loopd {
 
 std::optional<CorrectionOutput> LoopDetector::set_revoked_loops(const std::set<std::int64_t>& event_ids, std::int64_t ledger_seq, bool force) {
   ledger_seq_ = ledger_seq;
   const std::vector<LoopConstraint>& held = corrector_.loops();
-  std::vector<LoopConstraint> kept;
-  std::vector<std::int64_t> kept_events;
-  kept.reserve(held.size());
-  kept_events.reserve(held.size());
+  // The graph's loops by event id: in the order they were accepted, whichever were taken out and put back.
+  std::map<std::int64_t, LoopConstraint> kept;
   bool changed = false;
   for (std::size_t i = 0; i < held.size() && i < loop_events_.size(); ++i) {
     if (event_ids.count(loop_events_[i])) {
       revoked_[loop_events_[i]] = held[i];
       changed = true;
-      continue;
+    } else {
+      kept.emplace(loop_events_[i], held[i]);
     }
-    kept.push_back(held[i]);
-    kept_events.push_back(loop_events_[i]);
   }
   for (auto it = revoked_.begin(); it != revoked_.end();) {
     if (event_ids.count(it->first)) {
       ++it;
       continue;
     }
-    kept.push_back(it->second);  // restored: joins the graph again
-    kept_events.push_back(it->first);
+    kept.emplace(it->first, it->second);  // restored: joins the graph again
     it = revoked_.erase(it);
     changed = true;
   }
   if (!changed && !force) return std::nullopt;
   if (revision_ == 0 && kept.empty() && revoked_.empty()) return std::nullopt;  // no loop yet: nothing to correct
-  // In event order, the order they were accepted in: the graph is the same whichever loops were taken out and put back.
-  std::vector<std::size_t> order(kept.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return kept_events[a] < kept_events[b]; });
   std::vector<LoopConstraint> loops;
   std::vector<std::int64_t> events;
-  loops.reserve(order.size());
-  events.reserve(order.size());
-  for (std::size_t i : order) {
-    loops.push_back(kept[i]);
-    events.push_back(kept_events[i]);
+  loops.reserve(kept.size());
+  events.reserve(kept.size());
+  for (const auto& [event, loop] : kept) {
+    events.push_back(event);
+    loops.push_back(loop);
   }
   Stopwatch sw;
   const CorrectionResult result = corrector_.replace_loops(std::move(loops));

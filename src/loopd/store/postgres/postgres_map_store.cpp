@@ -517,6 +517,7 @@ StoreResult<std::int64_t> PostgresMapStore::put_ledger_entry(const LoopLedgerEnt
   const std::string what = std::string(e.revoked ? "revoke" : "restore") + " loop event " + std::to_string(e.event_id);
   std::string refused;
   out.status = connection_.run(what, [&](Tx& t) {
+    refused.clear();  // a transaction tried again starts again
     // The loop's row is locked: two operators entering the same change at once cannot both pass the check.
     const pqxx::result loops =
         t.exec_params("SELECT vehicle, status FROM loops WHERE ($1 < 0 OR vehicle = $1) AND event_id = $2 FOR UPDATE", vehicle_, e.event_id);
