@@ -72,6 +72,9 @@ void print_summary(const loopd::RunSummary& s, bool replay) {
                  "loopd: steps: %lld keyframe steps measured by the scans, %lld left to the odometry (the registration was not believed), %lld "
                  "(scans that may be skewed: no per-point times, moving)\n",
                  static_cast<long long>(e.steps_measured), static_cast<long long>(e.steps_refused), static_cast<long long>(e.steps_skewed));
+  if (e.keyframes_retired > 0)
+    std::fprintf(stderr, "loopd: retirement: %lld keyframes retired where their place holds newer and better-connected ones (retirement.*)\n",
+                 static_cast<long long>(e.keyframes_retired));
   if (e.keyframes_submapped > 0)
     std::fprintf(stderr, "loopd: submaps: %lld keyframes of a narrow or sparse sensor built from %.1f scans each on average (submap.*)\n",
                  static_cast<long long>(e.keyframes_submapped), static_cast<double>(e.submap_scans) / static_cast<double>(e.keyframes_submapped));

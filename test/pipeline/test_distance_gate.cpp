@@ -147,3 +147,24 @@ TEST_CASE("gate config refuses bad values") {
   c.min_index_gap = 0;
   CHECK(c.validate());
 }
+
+TEST_CASE("a retired entry is never a candidate again; within() lists a place's entries with no gap") {
+  DistanceGateConfig cfg;
+  DistanceGate g(cfg);
+  for (int i = 0; i < 200; ++i) g.add({KeyframeKey{0, i}, Eigen::Vector3d(std::fmod(2.0 * i, 100.0), 0.3 * (i / 50), 0), 2.0 * i});
+  // Laps of 50 keyframes along x: keyframes 10, 60, 110, 160 lie at x = 20 m.
+  const std::vector<GateCandidate> place = g.within(Eigen::Vector3d(20.0, 0.0, 0.0), 1.0);
+  REQUIRE(place.size() == 4);
+  CHECK(place[0].key == KeyframeKey{0, 10});  // nearest first (no lateral offset)
+  REQUIRE(g.retire(60));
+  CHECK_FALSE(g.retire(60));   // once
+  CHECK_FALSE(g.retire(500));  // no such entry
+  CHECK(g.within(Eigen::Vector3d(20.0, 0.0, 0.0), 1.0).size() == 3);
+  const GateEntry query{KeyframeKey{0, 200}, Eigen::Vector3d(20.0, 1.2, 0.0), 400.0};
+  for (const GateCandidate& c : g.candidates(query, 8.0)) CHECK(c.key != KeyframeKey{0, 60});
+  // Positions still update (entry order kept), and a retired entry does not come back with them.
+  g.update_positions([](const KeyframeKey& k) { return Eigen::Vector3d(std::fmod(2.0 * k.index, 100.0) + 0.1, 0.0, 0.0); });
+  CHECK(g.within(Eigen::Vector3d(20.1, 0.0, 0.0), 0.5).size() == 3);
+  g.update_positions_from(0, [](std::size_t i) { return Eigen::Vector3d(std::fmod(2.0 * static_cast<double>(i), 100.0) + 45.0, 0.0, 0.0); });
+  CHECK(g.within(Eigen::Vector3d(65.0, 0.0, 0.0), 0.5).size() == 3);
+}

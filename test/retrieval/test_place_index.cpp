@@ -160,3 +160,39 @@ TEST_CASE("PlaceIndex rejects unusable descriptors and configs") {
   CHECK(bad.validate().has_value());
   CHECK_FALSE(RetrievalConfig{}.validate().has_value());
 }
+
+TEST_CASE("PlaceIndex::remove takes an entry out for good: queries equal a brute force over the entries left") {
+  std::mt19937 rng(13);
+  std::vector<std::pair<KeyframeKey, PlaceDescriptor>> entries;
+  PlaceIndex index;
+  for (int i = 0; i < 200; ++i) {
+    const KeyframeKey key{0, i};
+    entries.emplace_back(key, random_descriptor(rng));
+    REQUIRE(index.add(key, entries.back().second));
+  }
+  // Every third entry out (the last one too: no entry moves into its slot), then one that is gone already.
+  std::vector<std::pair<KeyframeKey, PlaceDescriptor>> left;
+  for (const auto& e : entries) {
+    if (e.first.index % 3 == 2 || e.first.index == 199) {
+      REQUIRE(index.remove(e.first));
+    } else {
+      left.push_back(e);
+    }
+  }
+  CHECK_FALSE(index.remove(KeyframeKey{0, 2}));
+  CHECK_FALSE(index.remove(KeyframeKey{5, 0}));
+  REQUIRE(index.size() == left.size());
+  RetrievalConfig config;
+  config.k = 20;
+  config.ring_candidates = 200;
+  config.max_place_distance = 1.f;
+  for (int t = 0; t < 10; ++t) {
+    const PlaceDescriptor q = t < 5 ? random_descriptor(rng) : left[static_cast<std::size_t>(7 * t)].second;  // some exact revisits
+    check_same(index.query(q, config), brute_force(left, q, config.k, config.max_place_distance, {}));
+  }
+  // compare() knows only the entries left.
+  const PlaceDescriptor q = entries[4].second;
+  const std::vector<PlaceCandidate> named = index.compare({&q}, {KeyframeKey{0, 4}, KeyframeKey{0, 5}}, 1.f);
+  REQUIRE(named.size() == 1);
+  CHECK(named[0].key == KeyframeKey{0, 4});
+}

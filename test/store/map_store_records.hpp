@@ -9,6 +9,7 @@
 #include <set>
 #include <vector>
 
+#include "loopd/store/map_cloud_codec.hpp"
 #include "loopd/store/map_store.hpp"
 #include "map_test_scene.hpp"
 
@@ -196,6 +197,61 @@ inline void check_loop_ledger(MapStore& store) {
   REQUIRE_OK(read.status);
   REQUIRE(read.value);
   CHECK(read.value->ledger_seq == 3);
+}
+
+/// @brief Retiring keyframes on any back end, on a map fill() made: the rows keep key, time, poses, travel and step
+/// and lose their features and map cloud; a key the map does not hold refuses the whole call; retiring twice is no
+/// change; stats() and check() agree.
+inline void check_retire_keyframes(MapStore& store) {
+  using Code = StoreStatus::Code;
+  MapKeyframe clouded = keyframe(0, 3, scan_features(9));
+  PointCloud cloud;
+  for (int i = 0; i < 300; ++i) cloud.points.emplace_back(0.02f * static_cast<float>(i), std::cos(0.1f * static_cast<float>(i)), 1.5f);
+  clouded.map_cloud = std::make_shared<const std::vector<std::uint8_t>>(encode_map_cloud(cloud, 0.01));
+  REQUIRE_OK(store.put_keyframe(clouded));
+  REQUIRE_OK(store.put_loop(loop(1, {0, 3}, {0, 0}, true)));  // a retired keyframe stays a loop end
+  REQUIRE(store.stats().value.map_clouds == 1);
+
+  const StoreStatus missing = store.retire_keyframes({{0, 2}, {7, 0}});
+  INFO(missing.message);
+  CHECK(missing.code == Code::kNotFound);
+  CHECK(missing.message.find("7/0") != std::string::npos);
+  CHECK(store.stats().value.keyframes_retired == 0);  // nothing of the refused call
+
+  REQUIRE_OK(store.retire_keyframes({{0, 3}, {0, 2}}));
+  REQUIRE_OK(store.retire_keyframes({{0, 3}}));  // again: already retired, nothing changes
+  const StoreResult<MapStats> stats = store.stats();
+  REQUIRE_OK(stats.status);
+  CHECK(stats.value.keyframes == 7);
+  CHECK(stats.value.keyframes_retired == 2);
+  CHECK(stats.value.map_clouds == 0);
+  CHECK(stats.value.loops_accepted == 1);
+
+  std::map<std::pair<SessionId, std::int64_t>, MapKeyframe> read;
+  REQUIRE_OK(store.for_each_keyframe(std::nullopt, KeyframeLoad::kFull, [&](MapKeyframe&& k) {
+    read[{k.record.key.session, k.record.key.index}] = std::move(k);
+  }));
+  REQUIRE(read.size() == 7);
+  for (const auto& [key, k] : read) {
+    INFO("keyframe " << key.first << "/" << key.second);
+    const bool retired = key.first == 0 && key.second >= 2;
+    CHECK(k.retired == retired);
+    if (retired) CHECK(k.record.features == nullptr);
+    if (!retired && !(key.first == 1 && key.second == 1)) CHECK(k.record.features != nullptr);  // 1/1 was shed
+  }
+  // The retired rows keep their place in the chain exactly.
+  const MapKeyframe written = keyframe(0, 3, nullptr);
+  const MapKeyframe& kept = read[{0, 3}];
+  CHECK(kept.record.utime == written.record.utime);
+  CHECK(kept.record.T_odom_sensor.matrix() == written.record.T_odom_sensor.matrix());
+  CHECK(kept.T_map_sensor.matrix() == written.T_map_sensor.matrix());
+  CHECK(kept.record.travelled == written.record.travelled);
+  REQUIRE(kept.record.step);
+  CHECK(kept.record.step->T_previous_this.matrix() == written.record.step->T_previous_this.matrix());
+  CHECK(store.get_prepared({0, 3}).status.code == Code::kNotFound);
+  CHECK(store.get_map_cloud({0, 3}).status.code == Code::kNotFound);
+  CHECK(store.get_prepared({0, 1}).ok());
+  REQUIRE_OK(store.check());
 }
 
 }  // namespace loopd::map_test

@@ -114,8 +114,8 @@ TEST_CASE("map clouds: drop_undecided removes the clouds of the keyframes it rem
 }
 
 TEST_CASE(
-    "map clouds: a schema 2 map gains the map_clouds table, scan fingerprints, published marks, measured steps and the loop ledger on a "
-    "writable open, read-only it is refused with the versions") {
+    "map clouds: a schema 2 map gains the map_clouds table, scan fingerprints, published marks, measured steps, the loop ledger and "
+    "retired keyframes on a writable open, read-only it is refused with the versions") {
   test::TempDir dir;
   const std::string path = dir.file("map.db");
   {
@@ -129,6 +129,7 @@ TEST_CASE(
   REQUIRE(sqlite3_exec(db,
                        "DROP TABLE map_clouds; ALTER TABLE keyframes DROP COLUMN scan_fingerprint; ALTER TABLE keyframes DROP COLUMN step; "
                        "ALTER TABLE loops DROP COLUMN published; DROP TABLE loop_ledger; ALTER TABLE correction DROP COLUMN ledger_seq; "
+                       "ALTER TABLE keyframes DROP COLUMN retired; "
                        "PRAGMA user_version = 2;",
                        nullptr, nullptr, nullptr) == SQLITE_OK);
   sqlite3_close(db);
@@ -178,5 +179,10 @@ TEST_CASE(
   const auto ledger = store->loop_ledger();
   REQUIRE(ledger.ok());
   CHECK(ledger.value.empty());
+  // Retired keyframes exist now: none before, one after it is retired (its map cloud gone with its features).
+  CHECK(store->stats().value.keyframes_retired == 0);
+  REQUIRE_OK(store->retire_keyframes({{0, 1}}));
+  CHECK(store->stats().value.keyframes_retired == 1);
+  CHECK(store->get_map_cloud({0, 1}).status.code == Code::kNotFound);
   CHECK(store->check().ok());
 }

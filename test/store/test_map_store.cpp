@@ -238,6 +238,15 @@ TEST_CASE("map store: the loop ledger keeps every revoke and restore in order an
   check_loop_ledger(*store);
 }
 
+TEST_CASE("map store: retired keyframes keep their pose rows and lose their features and map clouds") {
+  const std::string backend = GENERATE("memory", "file");
+  INFO("back end " << backend);
+  TempDir dir;
+  auto store = open_ok(uri_of(backend, dir));
+  fill(*store);
+  check_retire_keyframes(*store);
+}
+
 TEST_CASE("map store: a file map reopens with everything in it, read-only too") {
   TempDir dir;
   const std::string path = dir.file("map.db");

@@ -199,6 +199,19 @@ TEST_CASE("postgres map: keyframes, map clouds, loops and the correction round-t
   REQUIRE_OK(store->check());
 }
 
+TEST_CASE("postgres map: retired keyframes as on SQLite, and a vehicle retires only its own", "[postgres]") {
+  const std::string uri = fresh_database();
+  if (uri.empty()) return;
+  auto whole = open_ok(uri);
+  fill(*whole);
+  check_retire_keyframes(*whole);
+  auto two = open_ok(uri, 2);
+  const StoreStatus other = two->retire_keyframes({{0, 0}});  // vehicle 0's session, not vehicle 2's
+  INFO(other.message);
+  CHECK(other.code == StoreStatus::Code::kNotFound);
+  CHECK(whole->stats().value.keyframes_retired == 2);
+}
+
 TEST_CASE("postgres map: the loop ledger as on SQLite, and each vehicle sees its own loops' entries", "[postgres]") {
   const std::string uri = fresh_database();
   if (uri.empty()) return;

@@ -70,6 +70,7 @@ int run_info(MapStore& store, const CommandOptions& options) {
   Table totals({"", "count"});
   totals.add({"sessions", std::to_string(m.sessions)});
   totals.add({"keyframes", std::to_string(m.keyframes)});
+  totals.add({"keyframes retired (pose rows only)", std::to_string(m.keyframes_retired)});
   totals.add({"keyframes with features", std::to_string(counts.with_features)});
   totals.add({"keyframes with usable features", std::to_string(counts.usable_features)});
   totals.add({"loops accepted", std::to_string(m.loops_accepted)});
@@ -93,6 +94,7 @@ int run_info(MapStore& store, const CommandOptions& options) {
                      {"sessions", m.sessions},
                      {"session_list", sessions_json(sessions.value, counts)},
                      {"keyframes", m.keyframes},
+                     {"keyframes_retired", m.keyframes_retired},
                      {"keyframes_with_features", counts.with_features},
                      {"keyframes_with_usable_features", counts.usable_features},
                      {"loops_accepted", m.loops_accepted},

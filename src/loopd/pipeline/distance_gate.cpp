@@ -64,7 +64,7 @@ void DistanceGate::update_positions_from(std::size_t first, const std::function<
     const Eigen::Vector3d p = position_of(i);
     const CellKey before = key(e.position), after = key(p);
     e.position = p;
-    if (before == after) continue;
+    if (before == after || e.retired) continue;
     // Each cell lists its entries in the order added, as rebuild() leaves it (candidates() keeps that order for ties).
     std::vector<std::size_t>& from = cells_[before];
     const auto it = std::lower_bound(from.begin(), from.end(), i);
@@ -76,7 +76,41 @@ void DistanceGate::update_positions_from(std::size_t first, const std::function<
 
 void DistanceGate::rebuild() {
   cells_.clear();
-  for (std::size_t i = 0; i < entries_.size(); ++i) cells_[key(entries_[i].position)].push_back(i);
+  for (std::size_t i = 0; i < entries_.size(); ++i)
+    if (!entries_[i].retired) cells_[key(entries_[i].position)].push_back(i);
+}
+
+bool DistanceGate::retire(std::size_t entry) {
+  if (entry >= entries_.size() || entries_[entry].retired) return false;
+  entries_[entry].retired = true;
+  const auto it = cells_.find(key(entries_[entry].position));
+  if (it != cells_.end()) {
+    std::vector<std::size_t>& cell = it->second;
+    const auto at = std::lower_bound(cell.begin(), cell.end(), entry);
+    if (at != cell.end() && *at == entry) cell.erase(at);
+    if (cell.empty()) cells_.erase(it);
+  }
+  return true;
+}
+
+std::vector<GateCandidate> DistanceGate::within(const Eigen::Vector3d& position, double radius) const {
+  std::vector<GateCandidate> out;
+  const double cell = config_.max_radius;
+  const auto cx = static_cast<std::int64_t>(std::floor(position.x() / cell));
+  const auto cy = static_cast<std::int64_t>(std::floor(position.y() / cell));
+  for (std::int64_t dx = -1; dx <= 1; ++dx) {
+    for (std::int64_t dy = -1; dy <= 1; ++dy) {
+      const auto it = cells_.find(cell_key(cx + dx, cy + dy));
+      if (it == cells_.end()) continue;
+      for (std::size_t i : it->second) {
+        const double d = (entries_[i].position - position).norm();
+        if (d <= radius) out.push_back({entries_[i].key, d});
+      }
+    }
+  }
+  std::sort(out.begin(), out.end(),
+            [](const GateCandidate& a, const GateCandidate& b) { return a.distance < b.distance || (a.distance == b.distance && a.key < b.key); });
+  return out;
 }
 
 std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, double radius, const std::function<bool(const KeyframeKey&)>& accept,

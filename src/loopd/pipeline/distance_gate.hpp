@@ -39,6 +39,7 @@ struct GateEntry {
   KeyframeKey key;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< current best estimate [m]
   double travelled = 0.0;                              ///< odometry distance from the first keyframe [m]
+  bool retired = false;                                ///< retire(): in no cell, never a candidate again
 };
 
 /// @brief Candidate returned by the gate.
@@ -68,6 +69,11 @@ class DistanceGate {
   /// @param travel_gap [m] the travel gap for this query (travel_gap()); negative: config's min_travel_gap.
   std::vector<GateCandidate> candidates(const GateEntry& query, double radius, const std::function<bool(const KeyframeKey&)>& accept = {},
                                         double travel_gap = -1.0) const;
+  /// @brief Keyframes within `radius` of `position` (3D), no gap applied, nearest first (a place's keyframes).
+  std::vector<GateCandidate> within(const Eigen::Vector3d& position, double radius) const;
+  /// @brief Entry `entry` (in the order added) leaves its cell for good: never a candidate or within() again (a
+  /// retired keyframe). Its position is still updated, so entries keep their order. False when out of range or retired.
+  bool retire(std::size_t entry);
   /// @brief [m] The travel gap for a query whose scan has this scene scale (0: unknown, the configured gap) at this
   /// gate radius.
   double travel_gap(double scene_scale, double radius) const;

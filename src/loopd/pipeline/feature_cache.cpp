@@ -23,6 +23,15 @@ void FeatureCache::put(const KeyframeKey& key, std::shared_ptr<const KeyframeFea
   evict();
 }
 
+bool FeatureCache::erase(const KeyframeKey& key) {
+  const auto it = index_.find(key);
+  if (it == index_.end()) return false;
+  bytes_ -= it->second->bytes;
+  order_.erase(it->second);
+  index_.erase(it);
+  return true;
+}
+
 void FeatureCache::evict() {
   while (bytes_ > capacity_ && order_.size() > 1) {
     const Entry& last = order_.back();

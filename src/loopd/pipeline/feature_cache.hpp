@@ -20,6 +20,8 @@ class FeatureCache {
   /// @brief Adds (or replaces) the features of `key` and evicts the least recently used beyond the capacity (the
   /// newest entry itself stays, even when it alone is larger).
   void put(const KeyframeKey& key, std::shared_ptr<const KeyframeFeatures> features);
+  /// @brief Drops the features of `key` (a retired keyframe); false when they were not cached.
+  bool erase(const KeyframeKey& key);
   std::size_t bytes() const { return bytes_; }
   std::size_t size() const { return index_.size(); }
   std::size_t capacity_bytes() const { return capacity_; }

@@ -261,6 +261,10 @@ LoopDecision LoopDetector::make_decision(const KeyframeRecord& query, const Rank
 }
 
 void LoopDetector::report(LoopDecision decision, DetectorOutput& out, const DecisionCallback& on_decided) {
+  if (decision.status == LoopStatus::kAccepted) {
+    ++loop_ends_[decision.query];
+    ++loop_ends_[decision.match];
+  }
   out.decisions.push_back(std::move(decision));
   if (on_decided) on_decided(out.decisions.back());
 }
@@ -590,6 +594,7 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
     if (!gated.accepted && config_.retrieval.enabled) close_prior_free(query, T_map_query, gated, out, on_decided);
   }
   gate_.add({query.key, T_map_query.translation(), travelled_});
+  if (!query.features) gate_.retire(gate_.size() - 1);  // shed: never a candidate, so in no cell of the gate
   if (out.correction) update_gate(correction_moved_from_);
   if (applied) {
     if (!out.correction) {  // a revision of its own (its loop event: the newest correction's)

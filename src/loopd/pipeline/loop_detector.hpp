@@ -25,6 +25,7 @@
 #include "loopd/pipeline/keyframe_database.hpp"
 #include "loopd/pipeline/keyframe_selector.hpp"
 #include "loopd/pipeline/verification_decision.hpp"
+#include "loopd/pipeline/place_density.hpp"
 #include "loopd/pipeline/prepare_scan.hpp"
 #include "loopd/pipeline/remote_keyframes.hpp"
 #include "loopd/pipeline/session_frames.hpp"
@@ -201,6 +202,19 @@ class LoopDetector {
   bool add_remote_keyframe(KeyframeRecord record);
   std::size_t remote_keyframes() const { return remote_.size(); }
 
+  // Area-bounded maps (place_density.hpp): the engine asks which keyframes share a place and retires the redundant ones.
+
+  /// @brief `key` as the retirement policy sees it (corrected pose, travel, accepted loops); nullopt when not held.
+  std::optional<PlaceKeyframe> place_view(const KeyframeKey& key) const;
+  /// @brief The keyframes still candidates (not retired, not shed) within `radius` (<= gate.max_radius) of `key`'s
+  /// corrected position whose sessions share its map frame, `key` excluded, nearest first.
+  std::vector<PlaceKeyframe> place_views_near(const KeyframeKey& key, double radius) const;
+  /// @brief Retires `key`: its features leave memory, the place index and the gate, so it is never a candidate again;
+  /// its pose stays in the pose sequence with its odometry steps and loops (the graph loses nothing) and in every
+  /// trajectory published. False when it is not held or has no features (already retired, or shed).
+  bool retire_keyframe(const KeyframeKey& key);
+  std::size_t retired_keyframes() const { return retired_keyframes_; }
+
   /// @brief Reads a keyframe's prepared scan back from where it is kept (a map store); nullopt when it cannot.
   using PreparedLoader = std::function<std::optional<PreparedScan>(const KeyframeKey&)>;
   /// @brief Memory bounded by a cache: keyframes keep their descriptor in memory and their prepared scans (most of
@@ -319,6 +333,8 @@ class LoopDetector {
   std::vector<std::int64_t> loop_events_;
   std::map<std::int64_t, LoopConstraint> revoked_;  ///< accepted loops revoked by the ledger, by event id
   std::int64_t ledger_seq_ = 0;
+  std::unordered_map<KeyframeKey, int, KeyframeKeyHash> loop_ends_;  ///< accepted loops each keyframe is an end of
+  std::size_t retired_keyframes_ = 0;
   SessionFrames sessions_;               ///< sessions in the corrector's one pose sequence, and which loops tied them
   PlaceIndex places_;                    ///< every keyframe's place descriptor (global retrieval), remote ones too
   RemoteKeyframes remote_;               ///< other vehicles' keyframes (fleet)

@@ -18,6 +18,7 @@ void LoopDetector::restore_keyframe(const KeyframeRecord& record) {
   const Eigen::Isometry3d T_map_query = enter_pose_sequence(input, features.get(), &record.step, &step);
   const KeyframeRecord& placed = place_keyframe(input, std::move(features), T_map_query, step);
   gate_.add({placed.key, T_map_query.translation(), travelled_});
+  if (!placed.features) gate_.retire(gate_.size() - 1);  // shed or retired: never a candidate (as add_keyframe())
 }
 
 void LoopDetector::expect_decisions(const std::vector<LoopDecision>& cut_off) {
@@ -35,6 +36,8 @@ LoopConstraint LoopDetector::count_restored(const LoopDecision& decision, const 
     return loop;
   }
   ++loops_accepted_;
+  ++loop_ends_[decision.query];
+  ++loop_ends_[decision.match];
   if (!pose_index_.count(decision.match)) return loop;  // to another vehicle's keyframe: the fleet's joint correction takes it
   last_accepted_ = decision.query;
   last_correction_event_id_ = std::max(last_correction_event_id_, decision.event_id);  // each such loop made a correction

@@ -32,6 +32,8 @@ struct MapKeyframe {
   /// The keyframe's map cloud as encode_map_cloud() made it (store/map_cloud_codec.hpp), written with the keyframe;
   /// null: none (never read back by for_each_keyframe: get_map_cloud reads it).
   std::shared_ptr<const std::vector<std::uint8_t>> map_cloud;
+  /// Retired by the place density policy (MapStore::retire_keyframes): a pose row only, its features and map cloud freed.
+  bool retired = false;
 };
 
 /// @brief How much of a keyframe for_each_keyframe() reads back.
@@ -59,6 +61,7 @@ struct CorrectionRecord {
 struct MapStats {
   std::int64_t sessions = 0, keyframes = 0, loops_accepted = 0, loops_rejected = 0;
   std::int64_t loops_revoked = 0;                                          ///< of loops_accepted: revoked by the loop ledger (now)
+  std::int64_t keyframes_retired = 0;                                      ///< of keyframes: retired (pose rows only, MapStore::retire_keyframes)
   std::int64_t map_clouds = 0, map_cloud_points = 0, map_cloud_bytes = 0;  ///< keyframes with a map cloud; their points and blob bytes
   std::int64_t bytes = 0;                                                  ///< on disk (database + journal)
 };

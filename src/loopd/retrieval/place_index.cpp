@@ -44,6 +44,30 @@ bool PlaceIndex::add(const KeyframeKey& key, PlaceDescriptor d) {
   return true;
 }
 
+bool PlaceIndex::remove(const KeyframeKey& key) {
+  std::unique_lock lock(mutex_);
+  const auto it = slot_of_.find(key);
+  if (it == slot_of_.end()) return false;
+  const std::size_t slot = it->second, last = keys_.size() - 1;
+  slot_of_.erase(it);
+  // Each array holds size() rows of one width: the last row moves into the freed one, then every array shrinks by a row.
+  const auto move_last = [slot, last](auto& rows, std::size_t width) {
+    if (slot != last) std::copy(rows.begin() + static_cast<std::ptrdiff_t>(last * width), rows.begin() + static_cast<std::ptrdiff_t>((last + 1) * width),
+                                rows.begin() + static_cast<std::ptrdiff_t>(slot * width));
+    rows.resize(last * width);
+  };
+  const auto nr = static_cast<std::size_t>(num_rings_), ns = static_cast<std::size_t>(num_sectors_);
+  move_last(ring_keys_, nr);
+  move_last(bins_, nr * ns);
+  move_last(column_norms_, ns);
+  if (slot != last) {
+    keys_[slot] = keys_[last];
+    slot_of_[keys_[slot]] = slot;
+  }
+  keys_.pop_back();
+  return true;
+}
+
 std::size_t PlaceIndex::size() const {
   std::shared_lock lock(mutex_);
   return keys_.size();

@@ -54,6 +54,9 @@ class PlaceIndex {
   /// @brief Adds one keyframe's descriptor. Returns false (and adds nothing) when it is not ok or its shape or
   /// quantisation differ from the first entry's. Keys are not checked for duplicates.
   bool add(const KeyframeKey& key, PlaceDescriptor descriptor);
+  /// @brief Takes `key`'s entry out (a retired keyframe: never a place candidate again); the last entry moves into its
+  /// slot, so ties among later queries fall by that order. False when the key is not in the index.
+  bool remove(const KeyframeKey& key);
   std::size_t size() const;
   /// @brief Bytes held by the entry arrays (capacity, not size).
   std::size_t bytes() const;

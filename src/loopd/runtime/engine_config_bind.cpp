@@ -27,6 +27,11 @@ void bind(Binder& b, EngineConfig& e) {
   b.field("imu.enabled", e.imu.enabled);
   b.field("imu.rpy_deg", e.imu.rpy_deg);
   b.field("imu.max_gap", e.imu.max_gap);
+  b.field("retirement.enabled", e.retirement.enabled);
+  b.field("retirement.radius_per_spacing", e.retirement.radius_per_spacing);
+  b.field("retirement.max_rotation_deg", e.retirement.max_rotation_deg);
+  b.field("retirement.keep", e.retirement.keep);
+  b.field("retirement.same_pass_radii", e.retirement.same_pass_radii);
   b.field("submap.enabled", e.submap.enabled);
   b.field("submap.max_coverage_deg", e.submap.max_coverage_deg);
   int submap_min_points = static_cast<int>(e.submap.min_points);

@@ -39,6 +39,7 @@ std::optional<std::string> EngineConfig::validate() const {
   if (!(max_odometry_speed > 0.0)) return "input.max_odometry_speed must be > 0 [m/s]";
   if (auto e = sessions.validate()) return e;
   if (auto e = map_cloud.validate()) return e;
+  if (auto e = retirement.validate()) return e;
   if (imu.rpy_deg.size() != 3) return "imu.rpy_deg must hold 3 angles (roll, pitch, yaw) [deg]";
   for (const double a : imu.rpy_deg)
     if (!(std::abs(a) <= 360.0)) return "imu.rpy_deg: angles must be finite and within +-360 deg";
@@ -299,6 +300,9 @@ ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes, b
   const bool thin = features_in_store_ && !config_.detector.correction.graph.use_plane_constraints;
   ResumeSummary r = resume_detector(store, detector_, thin ? KeyframeLoad::kDescriptor : KeyframeLoad::kFull, read_only);
   if (!r.ok) return r;
+  // A read-only map's keyframes are never retired (only this run's own, where the map already holds the place).
+  if (read_only)
+    for (const StoredKeyframe& k : r.stored) retirable_from_session_ = std::max(retirable_from_session_, k.key.session + 1);
   session_keys_.restore(r.stored, skip_stored_keyframes);
   for (const CorrectionOutput& c : r.corrections) sink_->on_correction(c);
   std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -307,6 +311,7 @@ ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes, b
   stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
   stats_.loops_accepted = detector_.loops_accepted();
   stats_.loops_rejected = detector_.loops_rejected();
+  stats_.keyframes_retired = r.keyframes_retired;
   return r;
 }
 
@@ -658,6 +663,7 @@ void LoopdEngine::run_sequential(ReadyKeyframe& item) {
   item.map_cloud.reset();
   if (out.correction) sink_->on_correction(*out.correction);
   sink_->on_keyframe_decided(item.input.key);
+  retire_redundant(item, out);
   if (out.correction && out.correction->graph_solved) {  // after a solve
     release_free_heap();
     page_out_library_code(kCompilerLibraries);  // PoCL compiles a kernel variant now and then
@@ -675,6 +681,26 @@ void LoopdEngine::run_sequential(ReadyKeyframe& item) {
   stats_.bytes_per_keyframe = static_cast<std::int64_t>(detector_.bytes_per_keyframe());
   stats_.cached_feature_bytes = static_cast<std::int64_t>(detector_.cached_feature_bytes());
   T_map_odom_ = detector_.T_map_odom();
+}
+
+void LoopdEngine::retire_redundant(const ReadyKeyframe& item, const DetectorOutput& out) {
+  const PlaceDensityConfig& policy = config_.retirement;
+  if (!policy.enabled || !item.features) return;
+  const bool looped = std::any_of(out.decisions.begin(), out.decisions.end(), [](const LoopDecision& d) { return d.status == LoopStatus::kAccepted; });
+  if (!looped) return;  // only a loop ties the keyframe to the others at its place
+  const KeyframeKey& key = item.input.key;
+  const std::optional<PlaceKeyframe> newest = detector_.place_view(key);
+  if (!newest) return;
+  const double radius = policy.radius_per_spacing * selector_.spacing(item.features->scene_scale);
+  std::vector<PlaceKeyframe> near = detector_.place_views_near(key, std::min(radius, config_.detector.gate.max_radius));
+  for (PlaceKeyframe& k : near) k.retirable = k.key.session >= retirable_from_session_;
+  std::vector<KeyframeKey> retired;
+  for (const KeyframeKey& k : thin_place(*newest, near, radius, policy).retire)
+    if (detector_.retire_keyframe(k)) retired.push_back(k);
+  if (retired.empty()) return;
+  sink_->on_keyframes_retired(key, retired);
+  std::lock_guard<std::mutex> s(stats_mutex_);
+  stats_.keyframes_retired += static_cast<std::int64_t>(retired.size());
 }
 
 void LoopdEngine::finish() {

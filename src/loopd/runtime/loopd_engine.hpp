@@ -60,6 +60,9 @@ struct EngineConfig {
   double max_odometry_speed = 60.0;            ///< [m/s] faster apparent odometry motion is an odometry reset (input.max_odometry_speed)
   SessionPolicy sessions;                      ///< when a drive or an odometry reset opens a new session (sessions.*)
   MapCloudConfig map_cloud;                    ///< the keyframes' map clouds (map.cloud_*), made when a map store is open
+  /// Area-bounded maps (retirement.*): after a keyframe closes a loop, the keyframes its place holds beyond the policy's
+  /// bound are retired (never candidates again; the map store frees their features and map clouds).
+  PlaceDensityConfig retirement;
   std::optional<std::string> validate() const;
 };
 
@@ -81,6 +84,9 @@ class EngineSink {
   virtual void on_final_correction(const CorrectionOutput& /*correction*/) {}
   /// @brief Every decision of `keyframe` (and its correction, if any) has been delivered.
   virtual void on_keyframe_decided(const KeyframeKey& /*keyframe*/) {}
+  /// @brief Keyframes the place density policy retired after `by` closed a loop (all decided before it): never
+  /// candidates again; their poses stay in every trajectory. A map store frees their features and map clouds.
+  virtual void on_keyframes_retired(const KeyframeKey& /*by*/, const std::vector<KeyframeKey>& /*retired*/) {}
   /// @brief The sequential stage is idle (LoopdEngine::tick, live): a moment for background work such as retrying
   /// buffered map writes. Never concurrent with the calls above.
   virtual void on_idle() {}
@@ -97,6 +103,7 @@ class ForwardingSink : public EngineSink {
   void on_correction(const CorrectionOutput& correction) override { next_.on_correction(correction); }
   void on_final_correction(const CorrectionOutput& correction) override { next_.on_final_correction(correction); }
   void on_keyframe_decided(const KeyframeKey& keyframe) override { next_.on_keyframe_decided(keyframe); }
+  void on_keyframes_retired(const KeyframeKey& by, const std::vector<KeyframeKey>& retired) override { next_.on_keyframes_retired(by, retired); }
   void on_idle() override { next_.on_idle(); }
 
  protected:
@@ -151,6 +158,7 @@ struct EngineStats {
   std::int64_t keyframes_skipped = 0;        ///< scans recognised as keyframes the map holds (a replay rerun) and skipped
   std::int64_t loops_revoked = 0;            ///< accepted loops the map's loop ledger keeps out of the graph now
   std::int64_t ledger_corrections = 0;       ///< graph solves made because the ledger changed (running, or at start)
+  std::int64_t keyframes_retired = 0;        ///< keyframes retired by the place density policy (restored ones included)
   double deskew_max_correction = 0.0;        ///< [m] largest distance deskew moved a point
   std::int64_t sweeps_from_scans = 0;        ///< keyframes deskewed with the motion their scans measured (deskew.from_scans)
   std::int64_t sweeps_from_odometry = 0;     ///< keyframes that tried and kept the odometry's motion (scans disagreed, did not register)
@@ -284,6 +292,10 @@ class LoopdEngine {
   /// @brief Sequences the ready keyframes in order unless another thread is (`lock` holds sequence_mutex_).
   void sequence_ready(std::unique_lock<std::mutex>& lock);
   void run_sequential(ReadyKeyframe& item);
+  /// After a keyframe that closed a loop: the place density policy's retirements, to the detector and the sink.
+  void retire_redundant(const ReadyKeyframe& item, const DetectorOutput& out);
+  /// Keyframes of sessions before this one are never retired (a map opened read-only: --localize); 0: any may be.
+  SessionId retirable_from_session_ = 0;
 
   EngineConfig config_;
   EngineSink* sink_;

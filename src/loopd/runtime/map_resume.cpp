@@ -127,6 +127,7 @@ ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeL
     }
     detector.restore_keyframe(k.record);
     ++summary.keyframes;
+    if (k.retired) ++summary.keyframes_retired;
     summary.stored.push_back({k.record.key, k.record.utime, k.record.T_odom_sensor, k.record.scan_fingerprint});
     failure = restore_decisions(k.record.key, loops, &next_loop, stored, revoked_then, detector, summary);
   });

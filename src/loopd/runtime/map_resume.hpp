@@ -25,6 +25,7 @@ struct ResumeSummary {
   /// Corrections made again: accepted loops whose correction the stop cut off. The caller stores and publishes them.
   std::vector<CorrectionOutput> corrections;
   std::int64_t loops_revoked = 0;       ///< accepted loops the map's loop ledger revokes (out of the graph)
+  std::int64_t keyframes_retired = 0;   ///< keyframes the map holds retired (poses only: never candidates)
   std::vector<LoopLedgerEntry> ledger;  ///< the ledger as read (a LedgerWatch goes on from its newest entry)
   /// The ledger changed since the stored correction: the graph was solved again without the loops it now revokes (the
   /// last of `corrections`, method "ledger").

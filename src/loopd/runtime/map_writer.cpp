@@ -165,6 +165,17 @@ void MapWriter::on_keyframe_decided(const KeyframeKey& keyframe) {
   next_.on_keyframe_decided(keyframe);
 }
 
+void MapWriter::on_keyframes_retired(const KeyframeKey& by, const std::vector<KeyframeKey>& retired) {
+  // One transaction; the keyframes were decided (and so written) before `by`, so an order-keeping buffer has them first.
+  write(std::to_string(retired.size()) + " keyframes retired by keyframe " + to_string(by), [this, retired] {
+    if (StoreStatus s = store_.retire_keyframes(retired); !s.ok()) return s;
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.keyframes_retired += static_cast<std::int64_t>(retired.size());
+    return StoreStatus{};
+  });
+  next_.on_keyframes_retired(by, retired);
+}
+
 void MapWriter::write(std::string what, std::function<StoreStatus()> transaction, bool keyframe) {
   if (stopped_) return failed(what, stopped_status());
   if (!pending_.empty() && retry_due()) flush_pending(false);

@@ -18,6 +18,7 @@ namespace loopd {
 struct MapWriterStats {
   std::int64_t keyframes_written = 0, decisions_written = 0, corrections_written = 0;
   std::int64_t map_cloud_bytes = 0;  ///< encoded map clouds written with the keyframes
+  std::int64_t keyframes_retired = 0;  ///< keyframes retired in the map (place density policy)
   /// writes given up: refused for good (disk full, a record stored with other content), or past the buffer's bound;
   /// what they carried stays in memory (detection goes on) and is not in the map
   std::int64_t failures = 0;
@@ -52,6 +53,9 @@ class MapWriter : public EngineSink {
   void on_decision(const LoopDecision& decision) override;
   void on_correction(const CorrectionOutput& correction) override;
   void on_keyframe_decided(const KeyframeKey& keyframe) override;
+  void on_keyframes_retired(const KeyframeKey& by, const std::vector<KeyframeKey>& retired) override;
+  /// @brief Passed on, not stored: the store resumes at the correction of its newest loop.
+  void on_final_correction(const CorrectionOutput& correction) override { next_.on_final_correction(correction); }
   MapWriterStats stats() const;
   /// @brief Writes what is buffered, trying for up to `timeout_s` while the server is unavailable; true when nothing
   /// is left (at exit: what is still buffered then is lost and counted in the log).

@@ -39,6 +39,7 @@ void log_resume(const MapStore& store, const ResumeSummary& r) {
     std::fprintf(stderr, "; %lld keyframe(s) cut off by the stop are processed again", static_cast<long long>(r.dropped_undecided));
   const std::size_t cut_off_corrections = r.corrections.size() - (r.ledger_corrected ? 1 : 0);
   if (cut_off_corrections > 0) std::fprintf(stderr, "; %zu correction(s) cut off by the stop made again", cut_off_corrections);
+  if (r.keyframes_retired > 0) std::fprintf(stderr, "; %lld of the keyframes retired (poses only)", static_cast<long long>(r.keyframes_retired));
   if (r.loops_revoked > 0) std::fprintf(stderr, "; %lld loop(s) revoked by the loop ledger", static_cast<long long>(r.loops_revoked));
   if (r.ledger_corrected) std::fprintf(stderr, "; the ledger changed since the stored correction: the graph was solved again without them");
   if (!r.cut_off.empty())

@@ -99,6 +99,11 @@ class MapStore {
   /// @brief The map cloud of one keyframe, decoded (sensor frame); kNotFound when it has none.
   virtual StoreResult<PointCloud> get_map_cloud(const KeyframeKey& key) = 0;
 
+  /// @brief Retires decided keyframes (the place density policy, area-bounded maps): each row keeps its key, time,
+  /// poses, travel and step (its place in the odometry chain, its loops' ends) and is marked retired; its features and
+  /// map cloud are deleted. Read back with features null, as a shed keyframe is. Keys already retired are left as they
+  /// are; a key the map does not hold (of this vehicle's, with a vehicle set) is refused (kNotFound) and nothing is retired.
+  virtual StoreStatus retire_keyframes(const std::vector<KeyframeKey>& keys) = 0;
   /// @brief Marks a keyframe decided: every decision it made (and its correction) is stored.
   virtual StoreStatus mark_decided(const KeyframeKey& key) = 0;
   /// @brief Removes the keyframes not marked decided and the decisions they made (a stop cut them off; they are

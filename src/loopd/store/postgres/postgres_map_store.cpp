@@ -75,6 +75,7 @@ class PostgresMapStore final : public MapStore, public SharedMap {
   StoreStatus for_each_keyframe(std::optional<SessionId> session, KeyframeLoad load, const std::function<void(MapKeyframe&&)>& visit) override;
   StoreResult<PreparedScan> get_prepared(const KeyframeKey& key) override;
   StoreResult<PointCloud> get_map_cloud(const KeyframeKey& key) override;
+  StoreStatus retire_keyframes(const std::vector<KeyframeKey>& keys) override;
   StoreStatus mark_decided(const KeyframeKey& key) override;
   StoreStatus mark_published(std::int64_t event_id) override;
   StoreResult<std::int64_t> drop_undecided() override;
@@ -257,10 +258,11 @@ StoreStatus PostgresMapStore::read_keyframe(const pqxx::row& row, KeyframeLoad l
       return corrupt("keyframe " + to_string(r.key) + ": its measured step is not " + std::to_string(blobs::kStepBytes) + " bytes");
     r.step = blobs::read_step(step.data());
   }
+  out.retired = row[18].as<bool>();
   if (load == KeyframeLoad::kPose || !row[7].as<bool>()) return {};
   auto f = std::make_shared<KeyframeFeatures>();
   if (load == KeyframeLoad::kFull) {
-    const std::vector<std::uint8_t> blob = bytes_of(row[18]);
+    const std::vector<std::uint8_t> blob = bytes_of(row[19]);
     DecodedFeatures decoded = decode_features(blob);
     if (!decoded.ok) return corrupt("keyframe " + to_string(r.key) + ": " + decoded.error);
     *f = std::move(decoded.features);
@@ -291,7 +293,7 @@ StoreStatus PostgresMapStore::read_keyframe(const pqxx::row& row, KeyframeLoad l
 /// visitor may write.
 StoreStatus PostgresMapStore::keyframes_where(const std::string& operation, KeyframeLoad load, const std::string& where,
                                               const std::function<void(MapKeyframe&&)>& visit) {
-  const std::string columns = std::string(postgres::kKeyframeColumns) + (load == KeyframeLoad::kFull ? ", features" : "");
+  const std::string columns = std::string(postgres::kKeyframeColumns) + ", retired" + (load == KeyframeLoad::kFull ? ", features" : "");
   const std::size_t batch = load == KeyframeLoad::kFull ? kFullKeyframeBatch : kKeyframeBatch;
   const std::string sql = "SELECT " + columns + " FROM keyframes WHERE (" + where +
                           ") AND (session, idx) > ($1::integer, $2::bigint) ORDER BY session, idx LIMIT " + std::to_string(batch);
@@ -364,6 +366,32 @@ StoreResult<PointCloud> PostgresMapStore::get_map_cloud(const KeyframeKey& key) 
   else
     out.value = std::move(decoded.cloud);
   return out;
+}
+
+StoreStatus PostgresMapStore::retire_keyframes(const std::vector<KeyframeKey>& keys) {
+  // This vehicle's keyframes only (its session range), all in one transaction.
+  const std::pair<long long, long long> range = session_range(vehicle_);
+  std::optional<KeyframeKey> missing;
+  StoreStatus s = connection_.run("retire " + std::to_string(keys.size()) + " keyframes", [&, lo = range.first, hi = range.second](Tx& t) {
+    missing.reset();
+    // Every key first, so a refusal writes nothing (the caller's transaction may hold other writes).
+    for (const KeyframeKey& key : keys) {
+      if (t.exec_params("SELECT 1 FROM keyframes WHERE session = $1 AND idx = $2 AND session BETWEEN $3 AND $4", key.session, key.index, lo, hi)
+              .empty()) {
+        missing = key;
+        return;
+      }
+    }
+    for (const KeyframeKey& key : keys) {
+      t.exec_params(
+          "UPDATE keyframes SET retired = true, has_features = false, descriptor = ''::bytea, place = ''::bytea, features = ''::bytea "
+          "WHERE session = $1 AND idx = $2",
+          key.session, key.index);
+      t.exec_params("DELETE FROM map_clouds WHERE session = $1 AND idx = $2", key.session, key.index);
+    }
+  });
+  if (s.ok() && missing) return {Code::kNotFound, "map " + display_ + ": no keyframe " + to_string(*missing) + " of this vehicle to retire"};
+  return s;
 }
 
 StoreStatus PostgresMapStore::mark_decided(const KeyframeKey& key) {
@@ -611,12 +639,14 @@ StoreResult<MapStats> PostgresMapStore::stats() {
         "AND status <> 1), (SELECT count(*) FROM map_clouds WHERE session BETWEEN $1 AND $2), (SELECT coalesce(sum(points), 0) FROM map_clouds "
         "WHERE session BETWEEN $1 AND $2), (SELECT coalesce(sum(length(cloud)), 0) FROM map_clouds WHERE session BETWEEN $1 AND $2), "
         "pg_database_size(current_database()), (SELECT count(*) FROM loops l WHERE ($3 < 0 OR l.vehicle = $3) AND l.status = 1 AND "
-        "(SELECT e.revoked FROM loop_ledger e WHERE e.vehicle = l.vehicle AND e.event_id = l.event_id ORDER BY e.seq DESC LIMIT 1))",
+        "(SELECT e.revoked FROM loop_ledger e WHERE e.vehicle = l.vehicle AND e.event_id = l.event_id ORDER BY e.seq DESC LIMIT 1)), "
+        "(SELECT count(*) FROM keyframes WHERE session BETWEEN $1 AND $2 AND retired)",
         lo, hi, vehicle_);
     std::int64_t* fields[] = {&out.value.sessions,        &out.value.keyframes,  &out.value.loops_accepted,
                               &out.value.loops_rejected,  &out.value.map_clouds, &out.value.map_cloud_points,
-                              &out.value.map_cloud_bytes, &out.value.bytes,      &out.value.loops_revoked};
-    for (int i = 0; i < 9; ++i) *fields[i] = r[i].as<std::int64_t>();
+                              &out.value.map_cloud_bytes, &out.value.bytes,      &out.value.loops_revoked,
+                              &out.value.keyframes_retired};
+    for (int i = 0; i < 10; ++i) *fields[i] = r[i].as<std::int64_t>();
   });
   if (out.ok()) size_bytes_.store(out.value.bytes);
   return out;

@@ -6,7 +6,7 @@
 namespace loopd {
 
 /// @brief Schema version of a PostgreSQL map (table loopd_meta); a map with another version is refused.
-inline constexpr int kPostgresMapSchemaVersion = 4;
+inline constexpr int kPostgresMapSchemaVersion = 5;
 
 /// @brief Connects to the libpq URI `config.uri` and creates loopd's tables when the database has none (several
 /// processes may do so at once; read_only never creates them: kNotFound). Scoped to `config.vehicle` (map_store.hpp).

@@ -17,7 +17,7 @@ CREATE TABLE keyframes (
   features_error text NOT NULL, input_points bigint NOT NULL, invalid_points bigint NOT NULL,
   ms_descriptor float8 NOT NULL, ms_prepare float8 NOT NULL, descriptor bytea NOT NULL, place bytea NOT NULL,
   features bytea NOT NULL, stored_at timestamptz NOT NULL DEFAULT clock_timestamp(),
-  scan_fingerprint bigint NOT NULL DEFAULT 0, step bytea,
+  scan_fingerprint bigint NOT NULL DEFAULT 0, step bytea, retired boolean NOT NULL DEFAULT false,
   PRIMARY KEY (session, idx));
 CREATE TABLE map_clouds (
   session integer NOT NULL, idx bigint NOT NULL, points bigint NOT NULL, cloud bytea NOT NULL,
@@ -45,7 +45,7 @@ CREATE TABLE fleet_corrections (
   stored_at timestamptz NOT NULL DEFAULT clock_timestamp());
 )sql";
 
-/// Keyframe columns of the bulk reads (features is read only at KeyframeLoad::kFull).
+/// Keyframe columns written by put_keyframe; the bulk reads add `retired`, then `features` at KeyframeLoad::kFull.
 inline constexpr const char* kKeyframeColumns =
     "session, idx, utime, T_odom_sensor, T_map_sensor, residual, travelled, has_features, features_ok, features_error, "
     "input_points, invalid_points, ms_descriptor, ms_prepare, descriptor, place, scan_fingerprint, step";
@@ -54,6 +54,7 @@ inline constexpr const char* kKeyframeColumns =
 /// 1 -> 2: the keyframes' scan fingerprints (0 before: a replay resume matches those by time and pose alone).
 /// 2 -> 3: the keyframes' steps measured by the scans (none before: the odometry's steps are used there).
 /// 3 -> 4: the loop ledger (empty before) and the ledger entry each vehicle's correction accounts for.
+/// 4 -> 5: retired keyframes (none before).
 inline constexpr const char* kSchemaUpgrades[] = {
     "ALTER TABLE keyframes ADD COLUMN scan_fingerprint bigint NOT NULL DEFAULT 0; "
     "ALTER TABLE loops ADD COLUMN published boolean NOT NULL DEFAULT true",
@@ -62,6 +63,7 @@ inline constexpr const char* kSchemaUpgrades[] = {
     "CREATE TABLE loop_ledger (seq bigserial PRIMARY KEY, vehicle integer NOT NULL, event_id bigint NOT NULL, revoked boolean NOT NULL, "
     "who text NOT NULL, reason text NOT NULL, utime bigint NOT NULL, stored_at timestamptz NOT NULL DEFAULT clock_timestamp()); "
     "CREATE INDEX loop_ledger_by_event ON loop_ledger (vehicle, event_id, seq)",
+    "ALTER TABLE keyframes ADD COLUMN retired boolean NOT NULL DEFAULT false",
 };
 
 inline constexpr const char* kLoopColumns =

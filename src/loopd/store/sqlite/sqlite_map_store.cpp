@@ -154,6 +154,7 @@ CREATE TABLE keyframes (
   place BLOB,
   scan_fingerprint INTEGER NOT NULL DEFAULT 0,
   step BLOB,
+  retired INTEGER NOT NULL DEFAULT 0,
   PRIMARY KEY (session, idx)
 );
 CREATE INDEX keyframes_undecided ON keyframes (session, idx) WHERE decided = 0;
@@ -212,7 +213,7 @@ CREATE INDEX loop_ledger_by_event ON loop_ledger (event_id, seq);
 // the features blob's overflow pages).
 #define LOOPD_KEYFRAME_COLUMNS                                                                                                       \
   "session, idx, utime, T_odom_sensor, T_map_sensor, residual, travelled, has_features, features_ok, features_error, input_points, " \
-  "invalid_points, ms_descriptor, ms_prepare, descriptor, place, scan_fingerprint, step"
+  "invalid_points, ms_descriptor, ms_prepare, descriptor, place, scan_fingerprint, step, retired"
 
 /// @brief The SQLite map: one connection, its cached statements, and the file name for messages.
 class SqliteMapStore final : public MapStore {
@@ -236,6 +237,7 @@ class SqliteMapStore final : public MapStore {
   StoreStatus for_each_keyframe(std::optional<SessionId> session, KeyframeLoad load, const std::function<void(MapKeyframe&&)>& visit) override;
   StoreResult<PreparedScan> get_prepared(const KeyframeKey& key) override;
   StoreResult<PointCloud> get_map_cloud(const KeyframeKey& key) override;
+  StoreStatus retire_keyframes(const std::vector<KeyframeKey>& keys) override;
   StoreStatus mark_decided(const KeyframeKey& key) override;
   StoreStatus mark_published(std::int64_t event_id) override;
   StoreResult<std::int64_t> drop_undecided() override;
@@ -270,6 +272,8 @@ class SqliteMapStore final : public MapStore {
     kPutLedger,
     kLedger,
     kLoopState,
+    kRetireKeyframe,
+    kDeleteMapCloud,
     kCount
   };
 
@@ -311,7 +315,7 @@ const char* sql_of(int s) {
        "ON CONFLICT (id) DO UPDATE SET first_utime = excluded.first_utime, sensor = excluded.sensor, source = excluded.source, "
        "T_map_session = excluded.T_map_session, anchored = excluded.anchored"),
       "SELECT id, first_utime, sensor, source, T_map_session, anchored FROM sessions ORDER BY id",
-      "INSERT INTO keyframes (" LOOPD_KEYFRAME_COLUMNS ", features) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+      "INSERT INTO keyframes (" LOOPD_KEYFRAME_COLUMNS ", features) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
       "SELECT " LOOPD_KEYFRAME_COLUMNS " FROM keyframes WHERE ?1 IS NULL OR session = ?1 ORDER BY session, idx",
       "SELECT " LOOPD_KEYFRAME_COLUMNS ", features FROM keyframes WHERE ?1 IS NULL OR session = ?1 ORDER BY session, idx",
       "SELECT has_features, features FROM keyframes WHERE session = ? AND idx = ?",
@@ -331,6 +335,9 @@ const char* sql_of(int s) {
       "SELECT seq, event_id, revoked, who, reason, utime FROM loop_ledger WHERE seq > ? ORDER BY seq",
       ("SELECT l.status, (SELECT e.revoked FROM loop_ledger e WHERE e.event_id = l.event_id ORDER BY e.seq DESC LIMIT 1) "
        "FROM loops l WHERE l.event_id = ?"),
+      ("UPDATE keyframes SET retired = 1, has_features = 0, descriptor = NULL, place = NULL, features = NULL "
+       "WHERE session = ? AND idx = ?"),
+      "DELETE FROM map_clouds WHERE session = ? AND idx = ?",
   };
   return kSql[s];
 }
@@ -380,7 +387,7 @@ StoreStatus SqliteMapStore::upgrade_schema(std::int64_t from) {
   // 3 -> 4: the keyframes' scan fingerprints (0 before: a replay resume matches those by time and pose alone) and
   // whether each decision reached the bus (decisions stored before were). 4 -> 5: the keyframes' steps measured by the
   // scans (none before: the corrections use the odometry's steps there, as when they were made). 5 -> 6: the loop
-  // ledger (empty before) and the ledger entry each correction accounts for.
+  // ledger (empty before) and the ledger entry each correction accounts for. 6 -> 7: retired keyframes (none before).
   const char* const steps[] = {
       "",
       ("ALTER TABLE keyframes ADD COLUMN place BLOB; ALTER TABLE loops ADD COLUMN retrieval TEXT NOT NULL DEFAULT 'gate'; "
@@ -393,6 +400,7 @@ StoreStatus SqliteMapStore::upgrade_schema(std::int64_t from) {
       ("ALTER TABLE correction ADD COLUMN ledger_seq INTEGER NOT NULL DEFAULT 0; CREATE TABLE loop_ledger (seq INTEGER PRIMARY KEY, "
        "event_id INTEGER NOT NULL, revoked INTEGER NOT NULL, who TEXT NOT NULL, reason TEXT NOT NULL, utime INTEGER NOT NULL); "
        "CREATE INDEX loop_ledger_by_event ON loop_ledger (event_id, seq);"),
+      "ALTER TABLE keyframes ADD COLUMN retired INTEGER NOT NULL DEFAULT 0;",
   };
   std::string sql = "BEGIN IMMEDIATE;";
   for (std::int64_t v = from; v < kSqliteMapSchemaVersion; ++v) sql += steps[v];
@@ -506,6 +514,7 @@ StoreStatus SqliteMapStore::insert_keyframe(const MapKeyframe& keyframe, bool* s
     use.blob(blobs::step_blob(*r.step));
   else
     use.null();
+  use.i64(0);  // retired: never when written
   if (f)
     use.blob(encode_features(*f));
   else
@@ -551,11 +560,12 @@ StoreStatus SqliteMapStore::read_keyframe(const Use& row, KeyframeLoad load, Map
   if (step && step_bytes != blobs::kStepBytes)
     return corrupt("keyframe " + to_string(r.key) + ": its measured step is not " + std::to_string(blobs::kStepBytes) + " bytes");
   if (step) r.step = blobs::read_step(step);
+  out.retired = row.i64_at(18) != 0;
   if (load == KeyframeLoad::kPose || row.i64_at(7) == 0) return {};
   auto f = std::make_shared<KeyframeFeatures>();
   if (load == KeyframeLoad::kFull) {
     std::size_t n = 0;
-    const std::uint8_t* blob = row.blob_at(18, n);
+    const std::uint8_t* blob = row.blob_at(19, n);
     DecodedFeatures decoded = decode_features(blob, n);
     if (!decoded.ok) return corrupt("keyframe " + to_string(r.key) + ": " + decoded.error);
     *f = std::move(decoded.features);
@@ -641,6 +651,29 @@ StoreResult<PointCloud> SqliteMapStore::get_map_cloud(const KeyframeKey& key) {
       out.value = std::move(decoded.cloud);
   }
   return out;
+}
+
+StoreStatus SqliteMapStore::retire_keyframes(const std::vector<KeyframeKey>& keys) {
+  // All or nothing (a savepoint nests in the caller's transaction when there is one).
+  if (auto st = exec("SAVEPOINT retire_keyframes", "retire keyframes"); !st.ok()) return st;
+  StoreStatus st;
+  for (const KeyframeKey& key : keys) {
+    Use retire(stmt(kRetireKeyframe));
+    retire.i64(key.session).i64(key.index);
+    st = done(retire, "retire keyframe " + to_string(key));
+    if (st.ok() && sqlite3_changes(db_) == 0) st = {Code::kNotFound, "map " + path_ + ": no keyframe " + to_string(key) + " to retire"};
+    if (!st.ok()) break;
+    Use cloud(stmt(kDeleteMapCloud));
+    cloud.i64(key.session).i64(key.index);
+    st = done(cloud, "delete the map cloud of keyframe " + to_string(key));
+    if (!st.ok()) break;
+  }
+  if (!st.ok()) {
+    exec("ROLLBACK TO retire_keyframes", "retire keyframes");
+    exec("RELEASE retire_keyframes", "retire keyframes");
+    return st;
+  }
+  return exec("RELEASE retire_keyframes", "retire keyframes");
 }
 
 StoreStatus SqliteMapStore::mark_decided(const KeyframeKey& key) {
@@ -876,6 +909,7 @@ StoreResult<MapStats> SqliteMapStore::stats() {
   const std::pair<const char*, std::int64_t*> counts[] = {
       {"SELECT count(*) FROM sessions", &out.value.sessions},
       {"SELECT count(*) FROM keyframes", &out.value.keyframes},
+      {"SELECT count(*) FROM keyframes WHERE retired = 1", &out.value.keyframes_retired},
       {"SELECT count(*) FROM loops WHERE status = 1", &out.value.loops_accepted},
       {"SELECT count(*) FROM loops WHERE status <> 1", &out.value.loops_rejected},
       {("SELECT count(*) FROM loops l WHERE l.status = 1 AND (SELECT e.revoked FROM loop_ledger e WHERE e.event_id = l.event_id "
@@ -916,6 +950,9 @@ std::vector<std::string> SqliteMapStore::invariant_problems() {
        "max(idx) || ')' FROM keyframes GROUP BY session HAVING min(idx) <> 0 OR max(idx) <> count(*) - 1 LIMIT 10"),
       ("SELECT 'keyframe ' || session || '/' || idx || ' names session ' || session || ', which is not stored' FROM keyframes "
        "WHERE NOT EXISTS (SELECT 1 FROM sessions WHERE id = session) LIMIT 10"),
+      ("SELECT 'keyframe ' || k.session || '/' || k.idx || ' is retired but keeps its features or map cloud' FROM keyframes k "
+       "WHERE k.retired = 1 AND (k.has_features <> 0 OR EXISTS (SELECT 1 FROM map_clouds c WHERE c.session = k.session AND "
+       "c.idx = k.idx)) LIMIT 10"),
   };
   for (const char* sql : queries) {
     Statement st;

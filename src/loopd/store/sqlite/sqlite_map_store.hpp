@@ -6,7 +6,7 @@ namespace loopd {
 
 /// @brief Schema version of the SQLite map (`PRAGMA user_version`); a map with another version is refused.
 /// 2: keyframes.place (Scan Context); 3: table map_clouds. Older maps are upgraded on a writable open.
-inline constexpr int kSqliteMapSchemaVersion = 6;
+inline constexpr int kSqliteMapSchemaVersion = 7;
 
 /// @brief Opens or creates the SQLite map `config.uri` names ("FILE", "sqlite://FILE" or "sqlite::memory:"). WAL
 /// journal, `synchronous` from the config, foreign keys on; a map of another schema version is refused (kCorrupt).
