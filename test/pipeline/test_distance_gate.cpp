@@ -148,7 +148,7 @@ TEST_CASE("gate config refuses bad values") {
   CHECK(c.validate());
 }
 
-TEST_CASE("a retired entry is never a candidate again; within() lists a place's entries with no gap") {
+TEST_CASE("a retired entry is never a candidate again, and within() lists a place entries with no gap") {
   DistanceGateConfig cfg;
   DistanceGate g(cfg);
   for (int i = 0; i < 200; ++i) g.add({KeyframeKey{0, i}, Eigen::Vector3d(std::fmod(2.0 * i, 100.0), 0.3 * (i / 50), 0), 2.0 * i});

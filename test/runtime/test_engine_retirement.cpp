@@ -41,18 +41,26 @@ EngineConfig drive_config(bool retire) {
   return c;
 }
 
+/// Before the map writer: the final correction (the whole graph solved once more at the end; not the map's).
+struct FinalTap : ForwardingSink {
+  using ForwardingSink::ForwardingSink;
+  std::optional<CorrectionOutput> final_correction;
+  void on_final_correction(const CorrectionOutput& c) override {
+    final_correction = c;
+    ForwardingSink::on_final_correction(c);
+  }
+};
+
 /// After the map writer: what was retired when, and every decision against it.
 struct Watcher : EngineSink {
   std::set<KeyframeKey> retired;
   std::vector<std::string> problems;
   std::int64_t accepted = 0;
-  std::optional<CorrectionOutput> final_correction;
   void on_decision(const LoopDecision& d) override {
     if (retired.count(d.match)) problems.push_back("decision " + std::to_string(d.event_id) + " names retired keyframe " + to_string(d.match));
     if (d.accepted()) ++accepted;
   }
   void on_correction(const CorrectionOutput&) override {}
-  void on_final_correction(const CorrectionOutput& c) override { final_correction = c; }
   void on_keyframes_retired(const KeyframeKey& by, const std::vector<KeyframeKey>& keys) override {
     for (const KeyframeKey& k : keys) {
       if (!(k < by)) problems.push_back("keyframe " + to_string(by) + " retired a newer one, " + to_string(k));
@@ -72,6 +80,7 @@ std::unique_ptr<MapStore> open_map(const std::string& path) {
 
 struct Run {
   Watcher watcher;
+  std::optional<CorrectionOutput> final_correction;
   EngineStats stats;
   double ate = 0.0;
 };
@@ -81,7 +90,8 @@ void replay(const Drive& drive, const std::string& path, bool retire, Run& run) 
   auto store = open_map(path);
   REQUIRE(store->put_session(SessionRecord{}).ok());
   MapWriter writer(*store, run.watcher, 100);
-  LoopdEngine engine(drive_config(retire), &writer);
+  FinalTap tap(writer);
+  LoopdEngine engine(drive_config(retire), &tap);
   engine.make_map_clouds();
   REQUIRE(engine.resume(*store, false).ok);
   for (const DriveScan& s : drive.scans) {
@@ -93,8 +103,9 @@ void replay(const Drive& drive, const std::string& path, bool retire, Run& run) 
   REQUIRE(writer.flush(5.0));
   CHECK(writer.stats().failures == 0);
   run.stats = engine.stats();
-  REQUIRE(run.watcher.final_correction);
-  const CorrectionOutput& c = *run.watcher.final_correction;
+  REQUIRE(tap.final_correction);
+  run.final_correction = tap.final_correction;
+  const CorrectionOutput& c = *tap.final_correction;
   std::map<std::int64_t, Eigen::Vector3d> truth;
   for (const DriveScan& s : drive.scans) truth[s.utime] = s.T_world_sensor.translation();
   // The first session's odometry starts at the ground truth, so the map frame is the world frame: no alignment.
@@ -150,10 +161,10 @@ TEST_CASE("engine: retirement keeps a bounded number of keyframes per place, nev
   CHECK(detector.indexed_places() == static_cast<std::size_t>(with.stats.keyframes - with.stats.keyframes_retired));
   const std::optional<CorrectionOutput> solved = detector.set_revoked_loops({}, 0, true);
   REQUIRE(solved);
-  CHECK(solved->resume_state.num_loops == with.watcher.final_correction->resume_state.num_loops);
+  CHECK(solved->resume_state.num_loops == with.final_correction->resume_state.num_loops);
   CHECK(solved->resume_state.num_loops == with.watcher.accepted);
-  REQUIRE(solved->keys == with.watcher.final_correction->keys);
-  const double moved = largest_move(solved->T_map_sensor, with.watcher.final_correction->T_map_sensor);
+  REQUIRE(solved->keys == with.final_correction->keys);
+  const double moved = largest_move(solved->T_map_sensor, with.final_correction->T_map_sensor);
   INFO("the reopened map's solve differs from the run's by up to " << moved << " m");
   CHECK(moved < 1e-3);  // 6e-5 m measured
 }

@@ -37,7 +37,9 @@ bool prepare_build(MapStore& store, const MapBuildOptions& options, bool progres
     std::cerr << "loopd-map: the map holds no keyframes" << (options.session ? " of session " + std::to_string(*options.session) : "") << "\n";
     return false;
   }
-  for (const KeyframePose& p : poses->poses) keyframes->push_back({p.key, p.T});
+  // A retired keyframe has no map cloud: its place is built from the keyframes kept there.
+  for (const KeyframePose& p : poses->poses)
+    if (!p.retired) keyframes->push_back({p.key, p.T});
   return true;
 }
 

@@ -1,5 +1,6 @@
 // loopd-map export-cloud / export-octomap: the corrected 3D map (or the odometry one) built from the map's keyframe
 // clouds (src/loopd/map3d/map_builder.hpp), written as .pcd / .ply or as an OctoMap .bt.
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <iostream>
@@ -23,6 +24,8 @@ void report(const MapBuildStats& s, const KeyframePoses& poses, const MapBuildOp
   Table t({"", "value"});
   t.add({"keyframes (" + std::string(o.odometry ? "odometry poses" : "corrected poses") + ")", std::to_string(s.keyframes)});
   t.add({"  without a map cloud", std::to_string(s.keyframes_without_cloud)});
+  const auto retired = std::count_if(poses.poses.begin(), poses.poses.end(), [](const KeyframePose& p) { return p.retired; });
+  t.add({"keyframes retired (left out: their places are kept by others)", std::to_string(retired)});
   t.add({"map-cloud points read", std::to_string(s.points_in)});
   t.add({"octree leaves (" + fmt(o.resolution, 2) + " m)",
          std::to_string(s.octree_leaves) + " (" + fmt(static_cast<double>(s.octree_bytes) / 1048576.0, 1) + " MiB)"});
@@ -46,6 +49,7 @@ void report(const MapBuildStats& s, const KeyframePoses& poses, const MapBuildOp
                    {"correction_revision", poses.correction_revision},
                    {"keyframes", s.keyframes},
                    {"keyframes_without_cloud", s.keyframes_without_cloud},
+                   {"keyframes_retired", retired},
                    {"points_in", s.points_in},
                    {"points_cleared", s.points_cleared},
                    {"points_merged", s.points_merged},

@@ -17,7 +17,7 @@ StoreStatus read_keyframe_poses(MapStore& store, bool odometry, std::optional<Se
   const StoreResult<MapStats> stats = store.stats();
   Progress bar("reading keyframes", stats.ok() ? stats.value.keyframes : 0, progress);
   const StoreStatus read = store.for_each_keyframe(session, KeyframeLoad::kPose, [&](MapKeyframe&& k) {
-    KeyframePose p{k.record.key, k.record.utime, k.record.T_odom_sensor};
+    KeyframePose p{k.record.key, k.record.utime, k.record.T_odom_sensor, k.retired};
     if (!odometry) {
       const auto it = covered.find(k.record.key);
       if (it != covered.end()) {

@@ -15,6 +15,7 @@ struct KeyframePose {
   KeyframeKey key;
   std::int64_t utime = 0;  ///< [us] scan time
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  bool retired = false;  ///< retired by the place density policy: no features, no map cloud
 };
 
 /// @brief The poses read and where they came from.

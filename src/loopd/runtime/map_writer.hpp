@@ -54,8 +54,6 @@ class MapWriter : public EngineSink {
   void on_correction(const CorrectionOutput& correction) override;
   void on_keyframe_decided(const KeyframeKey& keyframe) override;
   void on_keyframes_retired(const KeyframeKey& by, const std::vector<KeyframeKey>& retired) override;
-  /// @brief Passed on, not stored: the store resumes at the correction of its newest loop.
-  void on_final_correction(const CorrectionOutput& correction) override { next_.on_final_correction(correction); }
   MapWriterStats stats() const;
   /// @brief Writes what is buffered, trying for up to `timeout_s` while the server is unavailable; true when nothing
   /// is left (at exit: what is still buffered then is lost and counted in the log).
