@@ -25,9 +25,9 @@ TEST_CASE("place density: the newest view and the best-connected stay, the other
   PlaceDensityConfig config;  // keep 2
   const PlaceKeyframe newest = view(0, 900, 0.0, 3.0, 1800.0, 1);
   const std::vector<PlaceKeyframe> near = {
-      view(0, 100, 0.4, 0.0, 200.0, 2),   // lap 1
-      view(0, 350, -0.3, 5.0, 700.0, 6),  // lap 2: the best-connected
-      view(0, 620, 0.9, -4.0, 1250.0, 2), // lap 3: as connected as lap 1, newer
+      view(0, 100, 0.4, 0.0, 200.0, 2),    // lap 1
+      view(0, 350, -0.3, 5.0, 700.0, 6),   // lap 2: the best-connected
+      view(0, 620, 0.9, -4.0, 1250.0, 2),  // lap 3: as connected as lap 1, newer
   };
   const PlaceDensityResult r = thin_place(newest, near, 1.5, config);
   CHECK(r.views == 3);
@@ -43,9 +43,9 @@ TEST_CASE("place density: the keyframe's own pass, views turned away and a read-
   const PlaceDensityConfig config;
   const PlaceKeyframe newest = view(1, 40, 0.0, 0.0, 80.0, 1);
   std::vector<PlaceKeyframe> near = {
-      view(1, 39, -1.2, 0.0, 78.0, 0),    // own pass: 2 m of travel back (< 4 radii)
-      view(1, 2, 0.5, 170.0, 4.0, 3),     // the street driven the other way
-      view(0, 10, 0.2, 10.0, 20.0, 1),    // the map's session
+      view(1, 39, -1.2, 0.0, 78.0, 0),  // own pass: 2 m of travel back (< 4 radii)
+      view(1, 2, 0.5, 170.0, 4.0, 3),   // the street driven the other way
+      view(0, 10, 0.2, 10.0, 20.0, 1),  // the map's session
       view(0, 500, -0.4, -20.0, 900.0, 4),
   };
   PlaceDensityResult r = thin_place(newest, near, 1.5, config);

@@ -9,20 +9,12 @@
 #include "loopd/runtime/map_writer.hpp"
 #include "loopd/sim/drive.hpp"
 #include "support/block_revisit_drive.hpp"
+#include "support/open_test_map.hpp"
 #include "support/temp_dir.hpp"
 
 using namespace loopd;
 
 namespace {
-
-std::unique_ptr<MapStore> open_map(const std::string& path) {
-  MapStoreConfig config;
-  config.uri = path;
-  OpenedMapStore opened = open_map_store(config);
-  INFO(opened.status.message);
-  REQUIRE(opened.status.ok());
-  return std::move(opened.store);
-}
 
 LoopLedgerEntry entry(std::int64_t event, bool revoked) {
   LoopLedgerEntry e;
@@ -82,8 +74,8 @@ TEST_CASE("engine: a loop revoked in the map while the drive runs leaves the gra
   const Drive drive = test::block_revisit_drive();
   test::TempDir dir;
   const std::string path = dir.file("map.db");
-  auto store = open_map(path);
-  auto operator_connection = open_map(path);
+  auto store = test::open_test_map(path);
+  auto operator_connection = test::open_test_map(path);
   REQUIRE(store->put_session(SessionRecord{}).ok());
 
   Operator op;

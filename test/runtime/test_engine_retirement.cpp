@@ -12,24 +12,13 @@
 #include "loopd/runtime/map_resume.hpp"
 #include "loopd/runtime/map_writer.hpp"
 #include "loopd/sim/drive.hpp"
+#include "support/block_revisit_drive.hpp"
+#include "support/open_test_map.hpp"
 #include "support/temp_dir.hpp"
 
 using namespace loopd;
 
 namespace {
-
-/// Three passes of the block (a lap and two revisits), instantaneous scans.
-Drive three_pass_drive() {
-  DriveConfig dc;
-  dc.sensor = "vlp16";
-  dc.route = "block";
-  dc.num_scans = 560;
-  dc.seed = 23;
-  dc.effects.motion_skew = false;
-  Drive drive = make_drive(dc);
-  REQUIRE(drive.error.empty());
-  return drive;
-}
 
 EngineConfig drive_config(bool retire) {
   EngineConfig c;
@@ -69,15 +58,6 @@ struct Watcher : EngineSink {
   }
 };
 
-std::unique_ptr<MapStore> open_map(const std::string& path) {
-  MapStoreConfig config;
-  config.uri = path;
-  OpenedMapStore opened = open_map_store(config);
-  INFO(opened.status.message);
-  REQUIRE(opened.status.ok());
-  return std::move(opened.store);
-}
-
 struct Run {
   Watcher watcher;
   std::optional<CorrectionOutput> final_correction;
@@ -87,7 +67,7 @@ struct Run {
 
 /// Replays the drive into a fresh map at `path`; the RMSE of the final trajectory's positions against the ground truth.
 void replay(const Drive& drive, const std::string& path, bool retire, Run& run) {
-  auto store = open_map(path);
+  auto store = test::open_test_map(path);
   REQUIRE(store->put_session(SessionRecord{}).ok());
   MapWriter writer(*store, run.watcher, 100);
   FinalTap tap(writer);
@@ -124,13 +104,13 @@ double largest_move(const std::vector<Eigen::Isometry3d>& a, const std::vector<E
 }  // namespace
 
 TEST_CASE("engine: retirement keeps a bounded number of keyframes per place, never a candidate again, and every loop in the graph") {
-  const Drive drive = three_pass_drive();
+  const Drive drive = test::block_revisit_drive(560);  // a lap and two revisits
   test::TempDir dir;
   Run with, without;
   replay(drive, dir.file("retired.db"), true, with);
   replay(drive, dir.file("all.db"), false, without);
-  INFO("retired " << with.stats.keyframes_retired << " of " << with.stats.keyframes << " keyframes; ATE " << with.ate << " m, without "
-                  << without.ate << " m; loops " << with.watcher.accepted << " / " << without.watcher.accepted);
+  INFO("retired " << with.stats.keyframes_retired << " of " << with.stats.keyframes << " keyframes; ATE " << with.ate << " m, without " << without.ate
+                  << " m; loops " << with.watcher.accepted << " / " << without.watcher.accepted);
   for (const std::string& p : with.watcher.problems) FAIL_CHECK(p);
   CHECK(without.stats.keyframes_retired == 0);
   CHECK(with.stats.keyframes_retired == static_cast<std::int64_t>(with.watcher.retired.size()));
@@ -141,13 +121,13 @@ TEST_CASE("engine: retirement keeps a bounded number of keyframes per place, nev
   CHECK(with.watcher.accepted * 10 > without.watcher.accepted * 7);
 
   // The map: the retired rows keep their poses, their features and map clouds are gone.
-  auto store = open_map(dir.file("retired.db"));
+  auto store = test::open_test_map(dir.file("retired.db"));
   const StoreResult<MapStats> stats = store->stats();
   REQUIRE(stats.ok());
   CHECK(stats.value.keyframes == with.stats.keyframes);
   CHECK(stats.value.keyframes_retired == with.stats.keyframes_retired);
   CHECK(stats.value.map_clouds == stats.value.keyframes - stats.value.keyframes_retired);
-  auto full = open_map(dir.file("all.db"));
+  auto full = test::open_test_map(dir.file("all.db"));
   CHECK(stats.value.map_cloud_bytes < full->stats().value.map_cloud_bytes * 9 / 10);
   REQUIRE(store->check().ok());
 

@@ -52,8 +52,9 @@ bool PlaceIndex::remove(const KeyframeKey& key) {
   slot_of_.erase(it);
   // Each array holds size() rows of one width: the last row moves into the freed one, then every array shrinks by a row.
   const auto move_last = [slot, last](auto& rows, std::size_t width) {
-    if (slot != last) std::copy(rows.begin() + static_cast<std::ptrdiff_t>(last * width), rows.begin() + static_cast<std::ptrdiff_t>((last + 1) * width),
-                                rows.begin() + static_cast<std::ptrdiff_t>(slot * width));
+    if (slot != last)
+      std::copy(rows.begin() + static_cast<std::ptrdiff_t>(last * width), rows.begin() + static_cast<std::ptrdiff_t>((last + 1) * width),
+                rows.begin() + static_cast<std::ptrdiff_t>(slot * width));
     rows.resize(last * width);
   };
   const auto nr = static_cast<std::size_t>(num_rings_), ns = static_cast<std::size_t>(num_sectors_);

@@ -686,7 +686,8 @@ void LoopdEngine::run_sequential(ReadyKeyframe& item) {
 void LoopdEngine::retire_redundant(const ReadyKeyframe& item, const DetectorOutput& out) {
   const PlaceDensityConfig& policy = config_.retirement;
   if (!policy.enabled || !item.features) return;
-  const bool looped = std::any_of(out.decisions.begin(), out.decisions.end(), [](const LoopDecision& d) { return d.status == LoopStatus::kAccepted; });
+  const bool looped =
+      std::any_of(out.decisions.begin(), out.decisions.end(), [](const LoopDecision& d) { return d.status == LoopStatus::kAccepted; });
   if (!looped) return;  // only a loop ties the keyframe to the others at its place
   const KeyframeKey& key = item.input.key;
   const std::optional<PlaceKeyframe> newest = detector_.place_view(key);

@@ -17,7 +17,7 @@ namespace loopd {
 /// @brief What the map writer did, for status_t and the log.
 struct MapWriterStats {
   std::int64_t keyframes_written = 0, decisions_written = 0, corrections_written = 0;
-  std::int64_t map_cloud_bytes = 0;  ///< encoded map clouds written with the keyframes
+  std::int64_t map_cloud_bytes = 0;    ///< encoded map clouds written with the keyframes
   std::int64_t keyframes_retired = 0;  ///< keyframes retired in the map (place density policy)
   /// writes given up: refused for good (disk full, a record stored with other content), or past the buffer's bound;
   /// what they carried stays in memory (detection goes on) and is not in the map

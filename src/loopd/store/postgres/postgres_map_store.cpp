@@ -642,10 +642,9 @@ StoreResult<MapStats> PostgresMapStore::stats() {
         "(SELECT e.revoked FROM loop_ledger e WHERE e.vehicle = l.vehicle AND e.event_id = l.event_id ORDER BY e.seq DESC LIMIT 1)), "
         "(SELECT count(*) FROM keyframes WHERE session BETWEEN $1 AND $2 AND retired)",
         lo, hi, vehicle_);
-    std::int64_t* fields[] = {&out.value.sessions,        &out.value.keyframes,  &out.value.loops_accepted,
-                              &out.value.loops_rejected,  &out.value.map_clouds, &out.value.map_cloud_points,
-                              &out.value.map_cloud_bytes, &out.value.bytes,      &out.value.loops_revoked,
-                              &out.value.keyframes_retired};
+    std::int64_t* fields[] = {&out.value.sessions,      &out.value.keyframes,        &out.value.loops_accepted,  &out.value.loops_rejected,
+                              &out.value.map_clouds,    &out.value.map_cloud_points, &out.value.map_cloud_bytes, &out.value.bytes,
+                              &out.value.loops_revoked, &out.value.keyframes_retired};
     for (int i = 0; i < 10; ++i) *fields[i] = r[i].as<std::int64_t>();
   });
   if (out.ok()) size_bytes_.store(out.value.bytes);
