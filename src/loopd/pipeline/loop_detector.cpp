@@ -219,6 +219,7 @@ std::shared_ptr<const KeyframeFeatures> LoopDetector::thinned(const KeyframeFeat
   thin->ms_prepare = features.ms_prepare;
   thin->input_points = features.input_points;
   thin->invalid_points = features.invalid_points;
+  thin->scene_scale = features.scene_scale;  // the query's travel gap and verification settings (a handheld revisit)
   thin->prepared_in_store = true;
   return thin;
 }
