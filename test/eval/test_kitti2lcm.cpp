@@ -219,6 +219,21 @@ TEST_CASE("kitti2lcm round-trips a synthetic KITTI-format folder") {
     CHECK(a.odom[2].residual > 0.0);
     CHECK(a.odom[2].T_world_sensor.isApprox(b.odom[2].T_world_sensor, 1e-12));
   }
+  SECTION("--first-frame: the rest of the drive as a drive of its own, its scans, poses and times from that frame on") {
+    REQUIRE(run(bin + " --quiet --sequence " + seq + " --poses " + poses + " --first-frame 1 --utime-offset 86401000000 --out " + out) == 0);
+    const DecodedDrive dr = decode_drive(out);
+    REQUIRE(dr.scans.size() == 2);
+    REQUIRE(dr.gt.size() == 2);
+    const Eigen::Isometry3d Tr = kitti_like_tr();
+    for (int i = 0; i < 2; ++i) {
+      const auto u = static_cast<std::size_t>(i);
+      CHECK(dr.gt[u].T_world_sensor.isApprox(Tr.inverse() * camera_pose(i + 1) * Tr, 1e-6));
+      CHECK(dr.scans[u].size() == static_cast<std::size_t>(6 + i));  // frame 1's scan has 6 points
+    }
+    CHECK(dr.odom[0].T_world_sensor.isApprox(dr.gt[0].T_world_sensor, 1e-9));  // its odometry starts at its ground truth
+    CHECK(dr.scan_utimes[0] == 86401103615);                                    // a day later, frame 1's time
+    CHECK(run(bin + " --quiet --sequence " + seq + " --poses " + poses + " --first-frame 3 --out " + out) != 0);  // past the last
+  }
   SECTION("clear errors: missing scan, malformed poses, missing calibration, --max-frames") {
     fs::remove(d / "sequences/07/velodyne/000001.bin");
     const std::string err_file = (d / "err.txt").string();

@@ -1,6 +1,7 @@
 // kitti2lcm: converts a KITTI odometry sequence into an lcm-logger drive log (scans in the lidar frame, ground
 // truth on GROUND_TRUTH_POSE, odometry on ODOMETRY_POSE from a file or from ground truth with injected drift).
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -65,7 +66,7 @@ int fail(const std::string& msg, int status = loopd::tools::kExitUsage) {
 
 struct Options {
   std::string sequence, poses_path, out, calib_path, times_path, odometry_path, frame = "velodyne", sensor;
-  std::int64_t max_frames = -1, utime_offset = 1000000;
+  std::int64_t first_frame = 0, max_frames = -1, utime_offset = 1000000;
   double period = 0.0;
   bool skip_missing = false, json = false, quiet = false;
   OdometryDriftConfig drift;
@@ -87,6 +88,10 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--yaw-walk", o.drift.yaw_random_walk_deg, "[deg/sqrt(step)] injected yaw random walk")->capture_default_str();
   app.add_option("--translation-noise", o.drift.translation_noise, "[m/sqrt(step)] injected translation noise")->capture_default_str();
   app.add_option("--residual-base", o.drift.residual_base, "[m] residual of an unperturbed step")->capture_default_str();
+  app.add_option("--first-frame", o.first_frame,
+                 "start at this frame (its pose, time and scan NNNNNN): the rest of a drive as a drive of its own, e.g. a map made of its first "
+                 "half and its second half localized in it")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--max-frames", o.max_frames, "convert at most this many frames");
   app.add_option("--utime-offset", o.utime_offset, "[us] added to times (utime = offset + time * 1e6)")->capture_default_str();
   app.add_option("--sensor", o.sensor, "fill ring indices from point elevations with this lidar model (KITTI: hdl64); default: no rings");
@@ -104,6 +109,7 @@ struct Sequence {
   std::string velodyne_dir;
   std::vector<Eigen::Isometry3d> gt, odom;
   std::vector<double> times, residuals;
+  std::size_t first = 0;  ///< frame number of gt[0] (--first-frame)
   std::size_t n = 0;
 };
 
@@ -131,10 +137,11 @@ std::optional<std::string> make_odometry(const Options& o, const Eigen::Isometry
   if (!o.odometry_path.empty()) {
     const TrajectoryFile cam_odom = read_trajectory(o.odometry_path, TrajectoryFormat::kKitti);
     if (!cam_odom.ok) return cam_odom.error;
-    if (cam_odom.poses.size() < s.n)
+    if (cam_odom.poses.size() < s.first + s.n)
       return o.odometry_path + " has " + std::to_string(cam_odom.poses.size()) + " poses, fewer than the " + std::to_string(s.n) +
              " frames converted";
     s.odom = kitti_camera_to_lidar(cam_odom.poses, T_cam_velo);
+    s.odom.erase(s.odom.begin(), s.odom.begin() + static_cast<long>(std::min(s.first, s.odom.size())));
     s.residuals.assign(s.odom.size(), 0.0);
     return std::nullopt;
   }
@@ -158,6 +165,13 @@ std::optional<std::string> read_sequence(Options& o, Sequence& s) {
   if (!cam_poses.ok) return cam_poses.error;
   s.gt = kitti_camera_to_lidar(cam_poses.poses, calib.T_cam_velo);
   if (auto e = read_times(o, s)) return e;
+  if (o.first_frame > 0) {
+    if (static_cast<std::size_t>(o.first_frame) >= s.gt.size())
+      return "--first-frame " + std::to_string(o.first_frame) + " is past the last of the " + std::to_string(s.gt.size()) + " poses";
+    s.first = static_cast<std::size_t>(o.first_frame);
+    s.gt.erase(s.gt.begin(), s.gt.begin() + o.first_frame);
+    s.times.erase(s.times.begin(), s.times.begin() + o.first_frame);  // read_times gave at least one per pose
+  }
   s.n = s.gt.size();
   if (o.max_frames >= 0) s.n = std::min(s.n, static_cast<std::size_t>(o.max_frames));
   if (s.n == 0) return std::string("nothing to convert (--max-frames 0)");
@@ -181,12 +195,12 @@ std::optional<int> write_log(const Options& o, const Sequence& s, const std::opt
     if (!writer.write_message(o.gt_channel, utime, pose_message(utime, seq, s.gt[i], 0.0)) ||
         !writer.write_message(o.odom_channel, utime, pose_message(utime, seq, s.odom[i], s.residuals[i])))
       return fail("cannot write to " + o.out, loopd::tools::kExitProblem);
-    const std::string scan = scan_path(s.velodyne_dir, i);
+    const std::string scan = scan_path(s.velodyne_dir, s.first + i);
     if (scan.empty()) {
       if (!o.skip_missing) {
         char name[32];
-        std::snprintf(name, sizeof(name), "%06zu.bin", i);
-        return fail("scan " + s.velodyne_dir + "/" + name + " not found (frame " + std::to_string(i) +
+        std::snprintf(name, sizeof(name), "%06zu.bin", s.first + i);
+        return fail("scan " + s.velodyne_dir + "/" + name + " not found (frame " + std::to_string(s.first + i) +
                     "; --skip-missing-scans writes poses without it, --max-frames converts fewer frames)");
       }
       ++w.missing;

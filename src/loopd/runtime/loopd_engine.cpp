@@ -311,7 +311,6 @@ ResumeSummary LoopdEngine::resume(MapStore& store, bool skip_stored_keyframes, b
   stats_.keyframes = static_cast<std::int64_t>(detector_.num_keyframes());
   stats_.loops_accepted = detector_.loops_accepted();
   stats_.loops_rejected = detector_.loops_rejected();
-  stats_.keyframes_retired = r.keyframes_retired;
   return r;
 }
 

@@ -158,7 +158,7 @@ struct EngineStats {
   std::int64_t keyframes_skipped = 0;        ///< scans recognised as keyframes the map holds (a replay rerun) and skipped
   std::int64_t loops_revoked = 0;            ///< accepted loops the map's loop ledger keeps out of the graph now
   std::int64_t ledger_corrections = 0;       ///< graph solves made because the ledger changed (running, or at start)
-  std::int64_t keyframes_retired = 0;        ///< keyframes retired by the place density policy (restored ones included)
+  std::int64_t keyframes_retired = 0;        ///< keyframes this run retired (place density policy; those the map held retired: ResumeSummary)
   double deskew_max_correction = 0.0;        ///< [m] largest distance deskew moved a point
   std::int64_t sweeps_from_scans = 0;        ///< keyframes deskewed with the motion their scans measured (deskew.from_scans)
   std::int64_t sweeps_from_odometry = 0;     ///< keyframes that tried and kept the odometry's motion (scans disagreed, did not register)
