@@ -231,7 +231,7 @@ TEST_CASE("kitti2lcm round-trips a synthetic KITTI-format folder") {
       CHECK(dr.scans[u].size() == static_cast<std::size_t>(6 + i));  // frame 1's scan has 6 points
     }
     CHECK(dr.odom[0].T_world_sensor.isApprox(dr.gt[0].T_world_sensor, 1e-9));  // its odometry starts at its ground truth
-    CHECK(dr.scan_utimes[0] == 86401103615);                                    // a day later, frame 1's time
+    CHECK(dr.scan_utimes[0] == 86401103615);                                   // a day later, frame 1's time
     CHECK(run(bin + " --quiet --sequence " + seq + " --poses " + poses + " --first-frame 3 --out " + out) != 0);  // past the last
   }
   SECTION("clear errors: missing scan, malformed poses, missing calibration, --max-frames") {

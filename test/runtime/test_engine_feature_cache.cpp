@@ -9,6 +9,7 @@
 #include "loopd/runtime/loopd_engine.hpp"
 #include "loopd/runtime/map_writer.hpp"
 #include "support/block_revisit_drive.hpp"
+#include "support/engine_replay.hpp"
 #include "support/open_test_map.hpp"
 #include "support/temp_dir.hpp"
 
@@ -22,42 +23,24 @@ struct Decisions : EngineSink {
   void on_correction(const CorrectionOutput&) override {}
 };
 
-EngineConfig drive_config() {
-  EngineConfig c;
-  c.detector.sensor = "vlp16";
-  c.num_threads = 2;
-  c.block_when_full = true;  // replay: nothing is shed
-  c.detector.m2dp.backend = Backend::kCpu;
-  return c;
-}
-
-void replay(LoopdEngine& engine, const Drive& drive) {
-  for (const DriveScan& s : drive.scans) {
-    const double arrival = static_cast<double>(s.utime) * 1e-6;
-    engine.push_pose(s.odometry, arrival);
-    REQUIRE(engine.push_scan(s.utime, drive.simulate(s.index, 2), arrival));
-  }
-  engine.finish();
-}
-
 }  // namespace
 
 TEST_CASE("engine: features kept in the map behind a 4 MB cache make the same decisions as features in memory") {
   const Drive drive = test::block_revisit_drive();
   Decisions in_memory, cached;
   {
-    LoopdEngine engine(drive_config(), &in_memory);
-    replay(engine, drive);
+    LoopdEngine engine(test::replay_config(), &in_memory);
+    test::replay_drive(engine, drive);
   }
   test::TempDir dir;
   auto store = test::open_test_map(dir.file("map.db"));
   REQUIRE(store->put_session(SessionRecord{}).ok());
   {
     MapWriter writer(*store, cached, 100);
-    LoopdEngine engine(drive_config(), &writer);
+    LoopdEngine engine(test::replay_config(), &writer);
     engine.keep_features_in_store(*store, 4u << 20);  // a few keyframes: nearly every candidate is read back
     REQUIRE(engine.resume(*store, false).ok);
-    replay(engine, drive);
+    test::replay_drive(engine, drive);
     REQUIRE(writer.flush(5.0));
     CHECK(engine.stats().cached_feature_bytes <= 4 << 20);
   }

@@ -9,6 +9,7 @@
 #include "loopd/runtime/map_writer.hpp"
 #include "loopd/sim/drive.hpp"
 #include "support/block_revisit_drive.hpp"
+#include "support/engine_replay.hpp"
 #include "support/open_test_map.hpp"
 #include "support/temp_dir.hpp"
 
@@ -50,24 +51,6 @@ struct Operator : EngineSink {
   }
 };
 
-EngineConfig drive_config() {
-  EngineConfig c;
-  c.detector.sensor = "vlp16";
-  c.num_threads = 2;
-  c.block_when_full = true;  // replay: nothing is shed
-  c.detector.m2dp.backend = Backend::kCpu;
-  return c;
-}
-
-void replay(LoopdEngine& engine, const Drive& drive) {
-  for (const DriveScan& s : drive.scans) {
-    const double arrival = static_cast<double>(s.utime) * 1e-6;
-    engine.push_pose(s.odometry, arrival);
-    REQUIRE(engine.push_scan(s.utime, drive.simulate(s.index, 2), arrival));
-  }
-  engine.finish();
-}
-
 }  // namespace
 
 TEST_CASE("engine: a loop revoked in the map while the drive runs leaves the graph at the next keyframe and stays out") {
@@ -83,12 +66,12 @@ TEST_CASE("engine: a loop revoked in the map while the drive runs leaves the gra
   std::int64_t accepted_total = 0;
   {
     MapWriter writer(*store, op, 100);
-    LoopdEngine engine(drive_config(), &writer);
+    LoopdEngine engine(test::replay_config(), &writer);
     const ResumeSummary fresh = engine.resume(*store, false);
     REQUIRE(fresh.ok);
     LedgerWatch watch(*store, fresh.ledger, 0.0);  // every keyframe looks (loopd: map.ledger_poll)
     engine.set_ledger_feed([&watch] { return watch.poll(); });
-    replay(engine, drive);
+    test::replay_drive(engine, drive);
     accepted_total = engine.stats().loops_accepted;
     CHECK(engine.stats().loops_revoked == 1);
     CHECK(engine.stats().ledger_corrections == 1);
@@ -121,7 +104,7 @@ TEST_CASE("engine: a loop revoked in the map while the drive runs leaves the gra
   later.store = operator_connection.get();
   later.revoke_at = 1000000;
   const auto restart = [&](MapWriter& writer) {
-    LoopdEngine engine(drive_config(), &writer);
+    LoopdEngine engine(test::replay_config(), &writer);
     const ResumeSummary resumed = engine.resume(*store, true);
     INFO(resumed.error);
     REQUIRE(resumed.ok);

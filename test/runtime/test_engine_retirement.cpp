@@ -13,6 +13,7 @@
 #include "loopd/runtime/map_writer.hpp"
 #include "loopd/sim/drive.hpp"
 #include "support/block_revisit_drive.hpp"
+#include "support/engine_replay.hpp"
 #include "support/open_test_map.hpp"
 #include "support/temp_dir.hpp"
 
@@ -21,11 +22,7 @@ using namespace loopd;
 namespace {
 
 EngineConfig drive_config(bool retire) {
-  EngineConfig c;
-  c.detector.sensor = "vlp16";
-  c.num_threads = 2;
-  c.block_when_full = true;  // replay: nothing is shed
-  c.detector.m2dp.backend = Backend::kCpu;
+  EngineConfig c = test::replay_config();
   c.retirement.enabled = retire;
   return c;
 }
@@ -74,12 +71,7 @@ void replay(const Drive& drive, const std::string& path, bool retire, Run& run) 
   LoopdEngine engine(drive_config(retire), &tap);
   engine.make_map_clouds();
   REQUIRE(engine.resume(*store, false).ok);
-  for (const DriveScan& s : drive.scans) {
-    const double arrival = static_cast<double>(s.utime) * 1e-6;
-    engine.push_pose(s.odometry, arrival);
-    REQUIRE(engine.push_scan(s.utime, drive.simulate(s.index, 2), arrival));
-  }
-  engine.finish();
+  test::replay_drive(engine, drive);
   REQUIRE(writer.flush(5.0));
   CHECK(writer.stats().failures == 0);
   run.stats = engine.stats();
