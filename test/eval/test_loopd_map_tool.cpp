@@ -155,6 +155,7 @@ TEST_CASE("loopd-map info, trajectory and loops hold what loopd printed and publ
     CHECK(j["loops_rejected"] == printed_count(r.loopd_log, "rejected"));
     CHECK(j["loops_rejected"] == rejected);
     CHECK(j["correction_revision"] == pub.last_trajectory.revision);
+    CHECK(pub.last_trajectory.method == "final");  // the end-of-run solve is published and stored with --map too
     CHECK(j["keyframes_with_features"].get<std::int64_t>() > 0);
     CHECK(j["keyframes_with_features"].get<std::int64_t>() <= j["keyframes"].get<std::int64_t>());
     CHECK(j["bytes"].get<std::int64_t>() >= static_cast<std::int64_t>(fs::file_size(r.map)));

@@ -79,8 +79,8 @@ class EngineSink {
   virtual void on_decision(const LoopDecision& decision) = 0;
   virtual void on_correction(const CorrectionOutput& correction) = 0;
   /// @brief The end of a run (finish()): every keyframe and loop solved once more in one pose graph
-  ///        (LoopDetector::final_correction), the trajectory to take away. Not a map store's: the store resumes at the
-  ///        correction of its newest loop, which the next loop's solve supersedes.
+  ///        (LoopDetector::final_correction), the trajectory to take away. A map store keeps it as its correction (a
+  ///        restart resumes from it at the newest keyframe).
   virtual void on_final_correction(const CorrectionOutput& /*correction*/) {}
   /// @brief Every decision of `keyframe` (and its correction, if any) has been delivered.
   virtual void on_keyframe_decided(const KeyframeKey& /*keyframe*/) {}

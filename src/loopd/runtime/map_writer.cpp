@@ -134,6 +134,18 @@ void MapWriter::on_decision(const LoopDecision& decision) {
 }
 
 void MapWriter::on_correction(const CorrectionOutput& correction) {
+  store_correction(correction);
+  next_.on_correction(correction);
+}
+
+void MapWriter::on_final_correction(const CorrectionOutput& correction) {
+  // The run's last word: the map keeps it (loopd-map trajectory is what was published last, and a restart resumes
+  // from it at the newest keyframe), then it is published.
+  store_correction(correction);
+  next_.on_final_correction(correction);
+}
+
+void MapWriter::store_correction(const CorrectionOutput& correction) {
   if (correction_delay_ms_ > 0) std::this_thread::sleep_for(std::chrono::milliseconds(correction_delay_ms_));
   // The correction and "its keyframe is decided" in one transaction: a stop between them would leave a correction
   // naming a keyframe that resume removes.
@@ -155,7 +167,6 @@ void MapWriter::on_correction(const CorrectionOutput& correction) {
           }
           return s;
         });
-  next_.on_correction(correction);
 }
 
 void MapWriter::on_keyframe_decided(const KeyframeKey& keyframe) {

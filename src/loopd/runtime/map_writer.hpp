@@ -52,6 +52,8 @@ class MapWriter : public EngineSink {
   void on_keyframe(const KeyframeRecord& keyframe, const Eigen::Isometry3d& T_map_sensor, const MapCloudBlob& map_cloud) override;
   void on_decision(const LoopDecision& decision) override;
   void on_correction(const CorrectionOutput& correction) override;
+  /// @brief Stored as the map's correction too (the whole graph solved at the end of a run), then passed on.
+  void on_final_correction(const CorrectionOutput& correction) override;
   void on_keyframe_decided(const KeyframeKey& keyframe) override;
   void on_keyframes_retired(const KeyframeKey& by, const std::vector<KeyframeKey>& retired) override;
   MapWriterStats stats() const;
@@ -70,6 +72,8 @@ class MapWriter : public EngineSink {
   }
 
  private:
+  /// @brief The correction and "its newest keyframe is decided" in one transaction.
+  void store_correction(const CorrectionOutput& correction);
   /// @brief The session row of a keyframe's session exists (written with its first keyframe's time when new).
   StoreStatus ensure_session(SessionId session, std::int64_t first_utime);
   /// @brief The sessions' alignment and anchoring of a correction, written into their rows (inside its transaction).
