@@ -52,21 +52,33 @@ nlohmann::json evaluate(const std::string& drives_and_results) {
   return nlohmann::json::parse(loopd::test::last_line(run(kBin + "/tools/loopd-eval/loopd-eval --quiet --json " + drives_and_results)));
 }
 
+/// Every message of type Msg on `channel` of a log, in order (those that do not decode are left out).
+template <typename Msg>
+std::vector<Msg> read_channel(const fs::path& log, const std::string& channel) {
+  std::vector<Msg> out;
+  loopd::LogReader reader;
+  std::string error;
+  REQUIRE(reader.open(log.string(), &error));
+  loopd::LogEvent e;
+  while (reader.next(&e)) {
+    Msg m;
+    if (e.channel == channel && loopd::decode_bounded(e.data.data(), e.data.size(), loopd::DecodeLimits{}, &m).ok) out.push_back(m);
+  }
+  return out;
+}
+
+/// A message's position and w, x, y, z orientation as a pose.
+Eigen::Isometry3d isometry_of(const double position[3], const double orientation[4]) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond(orientation[0], orientation[1], orientation[2], orientation[3]).normalized().toRotationMatrix();
+  T.translation() = Eigen::Vector3d(position[0], position[1], position[2]);
+  return T;
+}
+
 /// Ground-truth sensor poses of a drive log by utime.
 std::map<std::int64_t, Eigen::Isometry3d> ground_truth(const fs::path& drive) {
   std::map<std::int64_t, Eigen::Isometry3d> poses;
-  loopd::LogReader reader;
-  std::string error;
-  REQUIRE(reader.open(drive.string(), &error));
-  loopd::LogEvent e;
-  while (reader.next(&e)) {
-    loopd::pose_t p;
-    if (e.channel != "GROUND_TRUTH_POSE" || !loopd::decode_bounded(e.data.data(), e.data.size(), loopd::DecodeLimits{}, &p).ok) continue;
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::Quaterniond(p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3]).normalized().toRotationMatrix();
-    T.translation() = Eigen::Vector3d(p.position[0], p.position[1], p.position[2]);
-    poses[p.utime] = T;
-  }
+  for (const loopd::pose_t& p : read_channel<loopd::pose_t>(drive, "GROUND_TRUTH_POSE")) poses[p.utime] = isometry_of(p.position, p.orientation);
   return poses;
 }
 
@@ -78,13 +90,7 @@ struct InterSessionLoops {
 InterSessionLoops inter_session_loops(const fs::path& output, const fs::path& first_drive, const fs::path& second_drive) {
   const auto first = ground_truth(first_drive), second = ground_truth(second_drive);
   InterSessionLoops out;
-  loopd::LogReader reader;
-  std::string error;
-  REQUIRE(reader.open(output.string(), &error));
-  loopd::LogEvent e;
-  while (reader.next(&e)) {
-    loopd::loop_event_t m;
-    if (e.channel != "LOOP_EVENT" || !loopd::decode_bounded(e.data.data(), e.data.size(), loopd::DecodeLimits{}, &m).ok) continue;
+  for (const loopd::loop_event_t& m : read_channel<loopd::loop_event_t>(output, "LOOP_EVENT")) {
     if (m.status != loopd::loop_event_t::STATUS_ACCEPTED || m.query_session == m.match_session) continue;
     ++out.accepted;
     const auto q = second.find(m.query_utime), r = first.find(m.match_utime);
@@ -100,31 +106,12 @@ InterSessionLoops inter_session_loops(const fs::path& output, const fs::path& fi
 
 /// The last status_t of an output log (a replay's final one).
 loopd::status_t last_status(const fs::path& output) {
-  loopd::status_t last{};
-  loopd::LogReader reader;
-  std::string error;
-  REQUIRE(reader.open(output.string(), &error));
-  loopd::LogEvent e;
-  while (reader.next(&e)) {
-    loopd::status_t s;
-    if (e.channel == "LOOPD_STATUS" && loopd::decode_bounded(e.data.data(), e.data.size(), loopd::DecodeLimits{}, &s).ok) last = s;
-  }
-  return last;
+  const std::vector<loopd::status_t> all = read_channel<loopd::status_t>(output, "LOOPD_STATUS");
+  return all.empty() ? loopd::status_t{} : all.back();
 }
 
 /// Every localization_t of an output log (loopd --localize), in order.
-std::vector<loopd::localization_t> localizations(const fs::path& output) {
-  std::vector<loopd::localization_t> out;
-  loopd::LogReader reader;
-  std::string error;
-  REQUIRE(reader.open(output.string(), &error));
-  loopd::LogEvent e;
-  while (reader.next(&e)) {
-    loopd::localization_t m;
-    if (e.channel == "LOOPD_LOCALIZATION" && loopd::decode_bounded(e.data.data(), e.data.size(), loopd::DecodeLimits{}, &m).ok) out.push_back(m);
-  }
-  return out;
-}
+std::vector<loopd::localization_t> localizations(const fs::path& output) { return read_channel<loopd::localization_t>(output, "LOOPD_LOCALIZATION"); }
 
 std::string file_bytes(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -183,9 +170,9 @@ TEST_CASE("a second drive through the same town is aligned to the first one's ma
       CHECK(m.localized_since_utime == placed.back().localized_since_utime);
       const auto gt = truth.find(m.utime);
       REQUIRE(gt != truth.end());
-      const Eigen::Quaterniond q(m.orientation[0], m.orientation[1], m.orientation[2], m.orientation[3]);
-      error_m.push_back((Eigen::Vector3d(m.position[0], m.position[1], m.position[2]) - gt->second.translation()).norm());
-      error_deg.push_back(Eigen::AngleAxisd(gt->second.linear().transpose() * q.toRotationMatrix()).angle() * 180.0 / M_PI);
+      const Eigen::Isometry3d T_map_vehicle = isometry_of(m.position, m.orientation);
+      error_m.push_back((T_map_vehicle.translation() - gt->second.translation()).norm());
+      error_deg.push_back(Eigen::AngleAxisd(gt->second.linear().transpose() * T_map_vehicle.linear()).angle() * 180.0 / M_PI);
     }
     std::sort(error_m.begin(), error_m.end());
     std::sort(error_deg.begin(), error_deg.end());
@@ -219,11 +206,7 @@ TEST_CASE("a second drive through the same town is aligned to the first one's ma
       const auto nearest = std::min_element(map_keyframes.begin(), map_keyframes.end(), [&](const auto& a, const auto& b) {
         return (a.second.translation() - gt.translation()).squaredNorm() < (b.second.translation() - gt.translation()).squaredNorm();
       });
-      Eigen::Isometry3d T_map_vehicle = Eigen::Isometry3d::Identity();
-      T_map_vehicle.linear() =
-          Eigen::Quaterniond(m.orientation[0], m.orientation[1], m.orientation[2], m.orientation[3]).normalized().toRotationMatrix();
-      T_map_vehicle.translation() = Eigen::Vector3d(m.position[0], m.position[1], m.position[2]);
-      const Eigen::Isometry3d estimated = nearest->first.inverse() * T_map_vehicle, actual = nearest->second.inverse() * gt;
+      const Eigen::Isometry3d estimated = nearest->first.inverse() * isometry_of(m.position, m.orientation), actual = nearest->second.inverse() * gt;
       relative_m.push_back((estimated.translation() - actual.translation()).norm());
       relative_deg.push_back(Eigen::AngleAxisd(actual.linear().transpose() * estimated.linear()).angle() * 180.0 / M_PI);
     }

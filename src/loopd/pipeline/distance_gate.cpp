@@ -16,6 +16,11 @@ std::int64_t cell_key(std::int64_t ix, std::int64_t iy) {
   return static_cast<std::int64_t>(bits);
 }
 
+void sort_nearest_first(std::vector<GateCandidate>& candidates) {
+  std::sort(candidates.begin(), candidates.end(),
+            [](const GateCandidate& a, const GateCandidate& b) { return a.distance < b.distance || (a.distance == b.distance && a.key < b.key); });
+}
+
 }  // namespace
 
 std::optional<std::string> DistanceGateConfig::validate() const {
@@ -46,6 +51,21 @@ DistanceGate::CellKey DistanceGate::key(const Eigen::Vector3d& p) const {
   const std::int64_t ix = static_cast<std::int64_t>(std::floor(p.x() / cell));
   const std::int64_t iy = static_cast<std::int64_t>(std::floor(p.y() / cell));
   return cell_key(ix, iy);
+}
+
+template <typename Visit>
+void DistanceGate::for_each_near(const Eigen::Vector3d& position, Visit&& visit) const {
+  // The 3 x 3 cells of max_radius around the position hold every entry within max_radius of it.
+  const double cell = config_.max_radius;
+  const auto cx = static_cast<std::int64_t>(std::floor(position.x() / cell));
+  const auto cy = static_cast<std::int64_t>(std::floor(position.y() / cell));
+  for (std::int64_t dx = -1; dx <= 1; ++dx) {
+    for (std::int64_t dy = -1; dy <= 1; ++dy) {
+      const auto it = cells_.find(cell_key(cx + dx, cy + dy));
+      if (it == cells_.end()) continue;
+      for (std::size_t i : it->second) visit(entries_[i]);
+    }
+  }
 }
 
 void DistanceGate::add(const GateEntry& entry) {
@@ -95,21 +115,11 @@ bool DistanceGate::retire(std::size_t entry) {
 
 std::vector<GateCandidate> DistanceGate::within(const Eigen::Vector3d& position, double radius) const {
   std::vector<GateCandidate> out;
-  const double cell = config_.max_radius;
-  const auto cx = static_cast<std::int64_t>(std::floor(position.x() / cell));
-  const auto cy = static_cast<std::int64_t>(std::floor(position.y() / cell));
-  for (std::int64_t dx = -1; dx <= 1; ++dx) {
-    for (std::int64_t dy = -1; dy <= 1; ++dy) {
-      const auto it = cells_.find(cell_key(cx + dx, cy + dy));
-      if (it == cells_.end()) continue;
-      for (std::size_t i : it->second) {
-        const double d = (entries_[i].position - position).norm();
-        if (d <= radius) out.push_back({entries_[i].key, d});
-      }
-    }
-  }
-  std::sort(out.begin(), out.end(),
-            [](const GateCandidate& a, const GateCandidate& b) { return a.distance < b.distance || (a.distance == b.distance && a.key < b.key); });
+  for_each_near(position, [&](const GateEntry& e) {
+    const double d = (e.position - position).norm();
+    if (d <= radius) out.push_back({e.key, d});
+  });
+  sort_nearest_first(out);
   return out;
 }
 
@@ -122,25 +132,14 @@ std::vector<GateCandidate> DistanceGate::candidates(const GateEntry& query, doub
       min_travel < config_.min_travel_gap && config_.min_travel_gap > 0.0
           ? std::max(std::min(config_.min_index_gap, 5), static_cast<int>(std::lround(config_.min_index_gap * min_travel / config_.min_travel_gap)))
           : config_.min_index_gap;
-  const double cell = config_.max_radius;
-  const std::int64_t cx = static_cast<std::int64_t>(std::floor(query.position.x() / cell));
-  const std::int64_t cy = static_cast<std::int64_t>(std::floor(query.position.y() / cell));
-  for (std::int64_t dx = -1; dx <= 1; ++dx) {
-    for (std::int64_t dy = -1; dy <= 1; ++dy) {
-      const auto it = cells_.find(cell_key(cx + dx, cy + dy));
-      if (it == cells_.end()) continue;
-      for (std::size_t i : it->second) {
-        const GateEntry& e = entries_[i];
-        const bool same_session = e.key.session == query.key.session;
-        if (same_session && keyframes_between(e.key, query.key) < min_index_gap) continue;
-        if (same_session && query.travelled - e.travelled < min_travel) continue;
-        const double d = (e.position - query.position).norm();
-        if (d <= radius && (!accept || accept(e.key))) out.push_back({e.key, d});
-      }
-    }
-  }
-  std::sort(out.begin(), out.end(),
-            [](const GateCandidate& a, const GateCandidate& b) { return a.distance < b.distance || (a.distance == b.distance && a.key < b.key); });
+  for_each_near(query.position, [&](const GateEntry& e) {
+    const bool same_session = e.key.session == query.key.session;
+    if (same_session && keyframes_between(e.key, query.key) < min_index_gap) return;
+    if (same_session && query.travelled - e.travelled < min_travel) return;
+    const double d = (e.position - query.position).norm();
+    if (d <= radius && (!accept || accept(e.key))) out.push_back({e.key, d});
+  });
+  sort_nearest_first(out);
   return out;
 }
 

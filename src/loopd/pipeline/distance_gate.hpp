@@ -83,6 +83,9 @@ class DistanceGate {
   using CellKey = std::int64_t;
   CellKey key(const Eigen::Vector3d& p) const;
   void rebuild();
+  /// Calls visit(entry) for every entry in the cells that can hold one within max_radius of `position`.
+  template <typename Visit>
+  void for_each_near(const Eigen::Vector3d& position, Visit&& visit) const;
 
   DistanceGateConfig config_;
   std::vector<GateEntry> entries_;

@@ -14,19 +14,13 @@ const KeyframeRecord* KeyframeDatabase::find(const KeyframeKey& key) const {
   return it == slot_of_.end() ? nullptr : &records_[it->second];
 }
 
-std::optional<std::size_t> KeyframeDatabase::slot(const KeyframeKey& key) const {
+std::optional<std::size_t> KeyframeDatabase::drop_features(const KeyframeKey& key) {
   const auto it = slot_of_.find(key);
-  if (it == slot_of_.end()) return std::nullopt;
-  return it->second;
-}
-
-bool KeyframeDatabase::drop_features(const KeyframeKey& key) {
-  const auto it = slot_of_.find(key);
-  if (it == slot_of_.end() || !records_[it->second].features) return false;
+  if (it == slot_of_.end() || !records_[it->second].features) return std::nullopt;
   KeyframeRecord& r = records_[it->second];
   bytes_ -= r.features->bytes();
   r.features.reset();
-  return true;
+  return it->second;
 }
 
 }  // namespace loopd

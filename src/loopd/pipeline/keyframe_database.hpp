@@ -17,11 +17,9 @@ class KeyframeDatabase {
   const KeyframeRecord& add(KeyframeRecord record);
   /// @brief The record of `key`, or null when there is none.
   const KeyframeRecord* find(const KeyframeKey& key) const;
-  /// @brief Where `key` is in records() (the order added), or nullopt.
-  std::optional<std::size_t> slot(const KeyframeKey& key) const;
-  /// @brief Drops the features of `key`'s record (a retired keyframe: its pose stays, it is never a candidate again);
-  /// false when there is no such record or it has none.
-  bool drop_features(const KeyframeKey& key);
+  /// @brief Drops the features of `key`'s record (a retired keyframe: its pose stays, it is never a candidate again)
+  /// and returns where the record is in records(); nullopt when there is no such record or it has no features.
+  std::optional<std::size_t> drop_features(const KeyframeKey& key);
   /// @brief Every record, in the order added.
   const std::vector<KeyframeRecord>& records() const { return records_; }
   std::size_t size() const { return records_.size(); }

@@ -210,6 +210,11 @@ void LoopDetector::update_gate(PoseIndex moved_from) {
                               [this, &poses](std::size_t i) { return poses[static_cast<std::size_t>(record_pose_index_[i])].translation(); });
 }
 
+void LoopDetector::add_to_gate(const KeyframeRecord& keyframe, const Eigen::Vector3d& position) {
+  gate_.add({keyframe.key, position, travelled_});
+  if (!keyframe.features) gate_.retire(gate_.size() - 1);  // never a candidate, so in no cell of the gate
+}
+
 std::shared_ptr<const KeyframeFeatures> LoopDetector::thinned(const KeyframeFeatures& features) {
   auto thin = std::make_shared<KeyframeFeatures>();
   thin->ok = features.ok;
@@ -594,8 +599,7 @@ DetectorOutput LoopDetector::add_keyframe(const KeyframeInput& input, std::share
     // Without a pose prior: every stored keyframe by its place descriptor, fully verified, and confirmed by the next keyframes.
     if (!gated.accepted && config_.retrieval.enabled) close_prior_free(query, T_map_query, gated, out, on_decided);
   }
-  gate_.add({query.key, T_map_query.translation(), travelled_});
-  if (!query.features) gate_.retire(gate_.size() - 1);  // shed: never a candidate, so in no cell of the gate
+  add_to_gate(query, T_map_query.translation());
   if (out.correction) update_gate(correction_moved_from_);
   if (applied) {
     if (!out.correction) {  // a revision of its own (its loop event: the newest correction's)

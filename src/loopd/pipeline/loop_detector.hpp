@@ -302,6 +302,10 @@ class LoopDetector {
   void update_gate(PoseIndex moved_from);
   bool guided(const KeyframeKey& query) const;
   LoopConstraint count_restored(const LoopDecision& decision, const Information6d& information);
+  /// The retirement policy's view of a held keyframe (place_view).
+  PlaceKeyframe view_of(const KeyframeRecord& record) const;
+  /// A placed keyframe enters the gate at its map position; one without features (shed, retired) in no cell of it.
+  void add_to_gate(const KeyframeRecord& keyframe, const Eigen::Vector3d& position);
 
   /// The verification settings for one query (small_scene_scale applied).
   VerifyConfig verify_config_for(const KeyframeRecord& query) const;

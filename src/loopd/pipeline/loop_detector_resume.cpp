@@ -17,8 +17,7 @@ void LoopDetector::restore_keyframe(const KeyframeRecord& record) {
   std::optional<MeasuredStep> step;
   const Eigen::Isometry3d T_map_query = enter_pose_sequence(input, features.get(), &record.step, &step);
   const KeyframeRecord& placed = place_keyframe(input, std::move(features), T_map_query, step);
-  gate_.add({placed.key, T_map_query.translation(), travelled_});
-  if (!placed.features) gate_.retire(gate_.size() - 1);  // shed or retired: never a candidate (as add_keyframe())
+  add_to_gate(placed, T_map_query.translation());
 }
 
 void LoopDetector::expect_decisions(const std::vector<LoopDecision>& cut_off) {

@@ -3,16 +3,20 @@
 
 namespace loopd {
 
+PlaceKeyframe LoopDetector::view_of(const KeyframeRecord& record) const {
+  PlaceKeyframe view;
+  view.key = record.key;
+  view.T_map_sensor = corrected(record.key);
+  view.travelled = record.travelled;
+  const auto loops = loop_ends_.find(record.key);
+  view.loops = loops == loop_ends_.end() ? 0 : loops->second;
+  return view;
+}
+
 std::optional<PlaceKeyframe> LoopDetector::place_view(const KeyframeKey& key) const {
   const KeyframeRecord* record = keyframes_.find(key);
   if (!record) return std::nullopt;
-  PlaceKeyframe view;
-  view.key = key;
-  view.T_map_sensor = corrected(key);
-  view.travelled = record->travelled;
-  const auto loops = loop_ends_.find(key);
-  view.loops = loops == loop_ends_.end() ? 0 : loops->second;
-  return view;
+  return view_of(*record);
 }
 
 std::vector<PlaceKeyframe> LoopDetector::place_views_near(const KeyframeKey& key, double radius) const {
@@ -23,14 +27,14 @@ std::vector<PlaceKeyframe> LoopDetector::place_views_near(const KeyframeKey& key
     const KeyframeRecord* record = keyframes_.find(c.key);
     if (!record || !record->features) continue;  // shed: never a candidate either
     if (c.key.session != key.session && !sessions_.tied(c.key.session, key.session)) continue;
-    if (std::optional<PlaceKeyframe> view = place_view(c.key)) out.push_back(std::move(*view));
+    out.push_back(view_of(*record));
   }
   return out;
 }
 
 bool LoopDetector::retire_keyframe(const KeyframeKey& key) {
-  const std::optional<std::size_t> slot = keyframes_.slot(key);
-  if (!slot || !keyframes_.drop_features(key)) return false;
+  const std::optional<std::size_t> slot = keyframes_.drop_features(key);
+  if (!slot) return false;
   places_.remove(key);
   if (cache_) cache_->erase(key);
   // The gate holds one entry per keyframe record, in the same order (place_keyframe, restore_keyframe).
