@@ -346,66 +346,6 @@ TEST_CASE("max_nodes bounds the graph of a long drive, the coarser graph still c
   }
 }
 
-TEST_CASE("graph: retired keyframes are never nodes, their odometry and their loops still hold the map") {
-  // Area-bounded maps: the keyframes around every loop's older end (41 of them each) are retired, so no loop ends on
-  // a node. Each loop moves to the nearest kept keyframe through ~20 steps of odometry with their uncertainty.
-  const Scenario s = make_scenario(1500, 14);
-  const auto n = static_cast<PoseIndex>(s.gt.size());
-  std::vector<PoseIndex> retired;
-  for (const LoopConstraint& l : s.loops) {
-    const PoseIndex m = std::min(l.match_index, l.query_index);
-    for (PoseIndex i = std::max<PoseIndex>(1, m - 20); i <= std::min(n - 2, m + 20); ++i) retired.push_back(i);
-  }
-  std::sort(retired.begin(), retired.end());
-  retired.erase(std::unique(retired.begin(), retired.end()), retired.end());
-  REQUIRE(s.loops.size() >= 3);
-
-  PoseGraphConfig cfg;
-  const detail::NodeLayout layout = detail::choose_nodes(s.gt.size(), detail::valid_loops(s.loops, s.gt.size()), {}, cfg, {}, retired);
-  const detail::NodeLayout all = detail::choose_nodes(s.gt.size(), detail::valid_loops(s.loops, s.gt.size()), {}, cfg);
-  for (int a : layout.anchors) CHECK_FALSE(std::binary_search(retired.begin(), retired.end(), static_cast<PoseIndex>(a)));
-  CHECK(layout.reduce);
-  CHECK(layout.anchors.size() <= all.anchors.size());  // the loops' older ends are no nodes; strides count kept keyframes
-  for (const LoopConstraint& l : s.loops) {
-    const int older = static_cast<int>(std::min(l.match_index, l.query_index));
-    INFO("loop " << l.match_index << " - " << l.query_index);
-    if (older == 0) continue;  // the first keyframe (the fixed gauge) is always a node
-    CHECK_FALSE(std::binary_search(layout.anchors.begin(), layout.anchors.end(), older));
-  }
-  REQUIRE(layout.retired.size() == s.gt.size());
-  CHECK(all.retired.empty());
-
-  const auto warm = correct_heuristic_all(s.odom.poses, s.odom.residuals, s.loops, {});
-  const PoseGraphResult kept = optimize_pose_graph(s.odom.poses, s.odom.residuals, s.loops, warm, cfg);
-  const PoseGraphResult moved = optimize_pose_graph(s.odom.poses, s.odom.residuals, s.loops, warm, cfg, {}, {}, {}, retired);
-  // The same loops dropped instead of moved: what retiring would lose without moving them.
-  std::vector<LoopConstraint> none;
-  const PoseGraphResult dropped = optimize_pose_graph(s.odom.poses, s.odom.residuals, none, s.odom.poses, cfg, {}, {}, {}, retired);
-  const TrajectoryError before = trajectory_error(s.odom.poses, s.gt), ek = trajectory_error(kept.poses, s.gt),
-                        em = trajectory_error(moved.poses, s.gt), ed = trajectory_error(dropped.poses, s.gt);
-  INFO(retired.size() << " retired; ATE odometry " << before.ate_rmse << " m, every keyframe a node " << ek.ate_rmse << " m, retired "
-                      << em.ate_rmse << " m, loops dropped " << ed.ate_rmse << " m; max difference " << max_position_difference(kept.poses, moved.poses));
-  REQUIRE(moved.poses.size() == s.gt.size());  // every keyframe keeps a pose
-  CHECK(moved.converged);
-  CHECK(em.ate_rmse < before.ate_rmse / 5);
-  CHECK(em.ate_rmse <= ek.ate_rmse * 1.2 + 0.05);  // measured 1.05 against 0.96 m (0.97 m with the moved loops taken as exact)
-  CHECK(ed.ate_rmse > 5 * em.ate_rmse);
-  for (const auto& l : s.loops) {  // each loop still meets at its retired end, within the ~21 steps of odometry it moved through
-    const auto [t, r] = loop_end_error(moved.poses, l);
-    CHECK(t < 0.3);
-    CHECK(r < 2.0 * kDeg);
-  }
-  // The corrector keeps the retired keyframes for every solve (and for a solve in flight, as of when it started).
-  LoopCorrector c;
-  for (std::size_t i = 0; i < s.odom.poses.size(); ++i) c.add_keyframe(s.odom.poses[i], s.odom.residuals[i]);
-  for (const PoseIndex i : retired) CHECK(c.retire(i));
-  CHECK_FALSE(c.retire(retired.front()));  // already retired
-  CHECK_FALSE(c.retire(n));                // out of range
-  CHECK(c.retired() == retired);
-  REQUIRE(c.add_loops(s.loops).ok);
-  CHECK(max_position_difference(c.corrected_poses(), moved.poses) < 1e-9);
-}
-
 TEST_CASE("segments: a second odometry segment moves rigidly onto its first loop, the first stays, later loops keep both") {
   auto yaw_pose = [](double x, double y, double yaw) {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -595,7 +535,7 @@ TEST_CASE("heuristic+graph in the background: a corrector resumed while a solve 
   CHECK(same_poses(a.corrected_poses(), b->corrected_poses()));
 }
 
-TEST_CASE("corrector state: the solve in flight round-trips as bytes with the keyframes retired when it started, version-1 and version-2 states still read, damaged bytes are refused") {
+TEST_CASE("corrector state: the solve in flight round-trips as bytes, a version-1 state still reads, damaged bytes are refused") {
   CorrectorResumeState s;
   s.max_end_index = 40;
   s.last_graph_index = 40;
@@ -610,13 +550,6 @@ TEST_CASE("corrector state: the solve in flight round-trips as bytes with the ke
   p.warm = {Eigen::Isometry3d::Identity(), Eigen::Isometry3d(Eigen::Translation3d(1.0 / 3.0, 2, 3)),
             Eigen::Isometry3d(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()))};
   s.pending = p;
-  const std::vector<std::uint8_t> v2_bytes = [&] {  // version 2: no retired keyframes (their count, 0, left off)
-    std::vector<std::uint8_t> b = encode_resume_state(s);
-    b.resize(b.size() - 8);
-    b[4] = 2;
-    return b;
-  }();
-  s.pending->retired = {1};
   const std::vector<std::uint8_t> bytes = encode_resume_state(s);
   const DecodedResumeState d = decode_resume_state(bytes);
   REQUIRE(d.ok);
@@ -626,17 +559,6 @@ TEST_CASE("corrector state: the solve in flight round-trips as bytes with the ke
   CHECK(d.state.pending->spans == 1);
   CHECK(d.state.pending->solve_again);
   CHECK(same_poses(d.state.pending->warm, p.warm));  // bit for bit: a resumed solve starts where the first one did
-  CHECK(d.state.pending->retired == std::vector<PoseIndex>{1});
-  const DecodedResumeState v2 = decode_resume_state(v2_bytes);
-  REQUIRE(v2.ok);
-  REQUIRE(v2.state.pending);
-  CHECK(v2.state.pending->retired.empty());
-  CHECK(same_poses(v2.state.pending->warm, p.warm));
-  for (const std::vector<PoseIndex>& bad : {std::vector<PoseIndex>{3}, std::vector<PoseIndex>{-1}, std::vector<PoseIndex>{2, 1}}) {
-    CorrectorResumeState b = s;  // retired keyframes outside the solve's poses, or out of order
-    b.pending->retired = bad;
-    CHECK_FALSE(decode_resume_state(encode_resume_state(b)).ok);
-  }
   // Version 1 (before solves in flight): the same fields without the flag.
   std::vector<std::uint8_t> v1(plain.begin(), plain.end() - 8);
   v1[4] = 1;
@@ -651,7 +573,7 @@ TEST_CASE("corrector state: the solve in flight round-trips as bytes with the ke
   }
   std::vector<std::uint8_t> nan = bytes;
   const double q = std::numeric_limits<double>::quiet_NaN();
-  std::memcpy(&nan[nan.size() - 24], &q, 8);  // the last warm pose's last value (before the retired count and index)
+  std::memcpy(&nan[nan.size() - 8], &q, 8);
   CHECK_FALSE(decode_resume_state(nan).ok);
 }
 

@@ -92,14 +92,6 @@ PoseIndex LoopCorrector::add_segment_start(const Eigen::Isometry3d& T_odom_senso
   return index;
 }
 
-bool LoopCorrector::retire(PoseIndex index) {
-  if (index < 0 || index >= static_cast<PoseIndex>(odometry_.size())) return false;
-  const auto at = std::lower_bound(retired_.begin(), retired_.end(), index);
-  if (at != retired_.end() && *at == index) return false;
-  retired_.insert(at, index);
-  return true;
-}
-
 std::vector<double> LoopCorrector::heuristic_weights() const {
   std::vector<double> weights = edge_weights(chain_poses(), residuals_, config_.heuristic);
   // A segment join takes (almost) all of a loop's error: the segment after it moves rigidly onto the loop.
@@ -111,8 +103,7 @@ std::vector<double> LoopCorrector::heuristic_weights() const {
 }
 
 CorrectionResult LoopCorrector::run_graph(std::vector<Eigen::Isometry3d> warm, CorrectionResult r) {
-  const PoseGraphResult g =
-      optimize_pose_graph(chain_poses(), residuals_, loops_, warm, config_.graph, planes_, step_information_, segment_starts_, retired_);
+  const PoseGraphResult g = optimize_pose_graph(chain_poses(), residuals_, loops_, warm, config_.graph, planes_, step_information_, segment_starts_);
   r.ms_graph = g.ms;
   r.graph_iterations = g.iterations;
   r.graph_converged = g.converged;
@@ -204,10 +195,9 @@ void LoopCorrector::start_graph(CorrectorResumeState::Pending snapshot) {
   InFlight f;
   f.result = std::async(std::launch::async, [poses = std::move(poses), residuals = std::move(residuals), loops = std::move(loops),
                                              warm = snapshot.warm, graph = config_.graph, planes = std::move(planes),
-                                             information = std::move(information), starts = std::move(starts), retired = snapshot.retired,
-                                             nice = config_.graph_solve_nice] {
+                                             information = std::move(information), starts = std::move(starts), nice = config_.graph_solve_nice] {
     if (nice > 0) lower_this_thread_priority(nice);
-    return optimize_pose_graph(poses, residuals, loops, warm, graph, planes, information, starts, retired);
+    return optimize_pose_graph(poses, residuals, loops, warm, graph, planes, information, starts);
   });
   f.snapshot = std::move(snapshot);
   pending_ = std::move(f);
@@ -219,8 +209,7 @@ CorrectorResumeState::Pending LoopCorrector::snapshot_now() const {
           static_cast<std::int64_t>(planes_.size()),
           static_cast<std::int64_t>(closed_spans_.size()),
           false,
-          corrected_,
-          retired_};
+          corrected_};
 }
 
 int LoopCorrector::graph_apply_lag(PoseIndex snapshot_poses) const {

@@ -96,7 +96,6 @@ struct CorrectorResumeState {
     std::int64_t spans = 0;               ///< closed spans when it started
     bool solve_again = false;             ///< a loop since then was due a solve: another starts when this one is applied
     std::vector<Eigen::Isometry3d> warm;  ///< the solve's starting poses (the heuristic's state when it started)
-    std::vector<PoseIndex> retired;       ///< keyframes retired when it started (sorted): never its nodes
   };
   std::optional<Pending> pending;
 };
@@ -138,15 +137,6 @@ class LoopCorrector {
   PoseIndex add_segment_start(const Eigen::Isometry3d& T_odom_sensor);
   /// @brief Positions that start a segment (add_segment_start), increasing.
   const std::vector<PoseIndex>& segment_starts() const { return segment_starts_; }
-
-  /// @brief Area-bounded maps: the keyframe at `index` is retired (a kept keyframe holds its place). From the next
-  /// solve on it is never a node of the pose graph: its odometry step joins the chain between two kept keyframes and
-  /// its loops' ends move to the nearest node with the odometry's uncertainty between them (optimize_pose_graph), so
-  /// a solve's size follows the kept keyframes. It keeps its pose (the heuristic and every trajectory still cover it).
-  /// False when out of range or already retired.
-  bool retire(PoseIndex index);
-  /// @brief The retired keyframes, increasing.
-  const std::vector<PoseIndex>& retired() const { return retired_; }
 
   /// @brief Stores the loop and re-corrects the whole trajectory. Zero-length loops and bad indices are rejected
   /// (ok = false, nothing changes); the same keyframe pair twice is accepted (the graph averages them).
@@ -227,7 +217,6 @@ class LoopCorrector {
   PoseIndex max_end_index_ = -1;
   PoseIndex last_graph_index_ = -1;  ///< newest loop end when the graph was last solved online
   std::vector<PoseIndex> segment_starts_;
-  std::vector<PoseIndex> retired_;  ///< retire(): never nodes of a solve, increasing
   /// The solve in flight (graph_apply_after > 0) and its snapshot.
   struct InFlight {
     CorrectorResumeState::Pending snapshot;

@@ -8,8 +8,7 @@ namespace loopd {
 namespace {
 
 constexpr std::uint32_t kResumeMagic = 0x4c435253;  // "SRCL"
-/// 2: a pose-graph solve in flight; 3: the keyframes retired when it started (1 and 2 are read too)
-constexpr std::uint32_t kResumeVersion = 3;
+constexpr std::uint32_t kResumeVersion = 2;         ///< 2: a pose-graph solve in flight (1, without it, is read too)
 
 void put_u64(std::vector<std::uint8_t>& out, std::uint64_t v) {
   for (int i = 0; i < 8; ++i) out.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
@@ -79,8 +78,6 @@ std::vector<std::uint8_t> encode_resume_state(const CorrectorResumeState& state)
     put_u64(out, p.solve_again ? 1 : 0);
     put_u64(out, p.warm.size());
     for (const Eigen::Isometry3d& T : p.warm) put_pose(out, T);
-    put_u64(out, p.retired.size());
-    for (const PoseIndex i : p.retired) put_u64(out, static_cast<std::uint64_t>(i));
   }
   return out;
 }
@@ -94,7 +91,7 @@ DecodedResumeState decode_resume_state(const std::vector<std::uint8_t>& bytes) {
     return r;
   }
   const std::uint64_t version = header >> 32;
-  if (version < 1 || version > kResumeVersion) {
+  if (version != 1 && version != kResumeVersion) {
     r.error = "corrector state: version " + std::to_string(header >> 32) + ", this loopd reads " + std::to_string(kResumeVersion);
     return r;
   }
@@ -129,18 +126,6 @@ DecodedResumeState decode_resume_state(const std::vector<std::uint8_t>& bytes) {
     for (Eigen::Isometry3d& T : p.warm)
       if (!get_pose(bytes, &at, &T)) {
         r.error = "corrector state: a starting pose of the solve in flight is not finite";
-        return r;
-      }
-    std::uint64_t retired = 0;
-    if (version >= 3 && (!get_u64(bytes, &at, &retired) || retired > (bytes.size() - at) / 8)) {
-      r.error = "corrector state: the solve in flight's retired keyframes are truncated";
-      return r;
-    }
-    p.retired.resize(static_cast<std::size_t>(retired));
-    for (PoseIndex& i : p.retired) get_i64(bytes, &at, &i);
-    for (std::size_t k = 0; k < p.retired.size(); ++k)
-      if (p.retired[k] < 0 || p.retired[k] >= p.poses || (k > 0 && p.retired[k] <= p.retired[k - 1])) {
-        r.error = "corrector state: the solve in flight's retired keyframes are out of range or out of order";
         return r;
       }
     s.pending = std::move(p);

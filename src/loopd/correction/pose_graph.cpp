@@ -139,27 +139,11 @@ void add_odometry_chain_edges(const std::vector<Eigen::Isometry3d>& odometry_pos
   }
 }
 
-/// @brief Covariance of the odometry chain from keyframe i to keyframe j (either order), i.e. of T_i_j, for right
-/// perturbations: the steps between them propagated with adjoints as in add_odometry_chain_edges.
-Matrix6d chain_covariance(const std::vector<Eigen::Isometry3d>& odometry_poses, const OdometryCovariance& odometry_covariance, std::size_t i,
-                          std::size_t j) {
-  const std::size_t a = std::min(i, j), b = std::max(i, j);
-  Matrix6d cov = Matrix6d::Zero();
-  const Eigen::Isometry3d T_b_inv = odometry_poses[b].inverse();
-  for (std::size_t k = a + 1; k <= b; ++k) {
-    const Matrix6d A = adjoint(T_b_inv * odometry_poses[k]);
-    cov += A * odometry_covariance(k) * A.transpose();
-  }
-  if (i < j) return cov;
-  const Matrix6d A = adjoint(odometry_poses[a].inverse() * odometry_poses[b]);  // (T exp(xi))^-1 = T^-1 exp(-Ad(T) xi)
-  return A * cov * A.transpose();
-}
-
 /// @brief One robust edge per loop between the nodes of its ends (none when both ends share a node). In a graph capped
 /// by max_nodes only the first loop between two nodes becomes an edge: the others join the same two places a few
 /// keyframes apart (20,119 loops on a lap visited 45 times, 4000 nodes: a solve's peak 244 -> 231 MB).
 void add_loop_edges(const std::vector<const LoopConstraint*>& loops, const std::vector<Eigen::Isometry3d>& odometry_poses, const NodeLayout& layout,
-                    const OdometryCovariance& odometry_covariance, const PoseGraphConfig& config, std::vector<GraphEdge>& edges) {
+                    const PoseGraphConfig& config, std::vector<GraphEdge>& edges) {
   std::unordered_set<std::int64_t> joined;  // node pairs (a, b) with an edge, when capped
   for (const LoopConstraint* l : loops) {
     const auto m = static_cast<std::size_t>(l->match_index), q = static_cast<std::size_t>(l->query_index);
@@ -168,20 +152,10 @@ void add_loop_edges(const std::vector<const LoopConstraint*>& loops, const std::
     e.b = layout.nearest_node[q];
     if (e.a == e.b) continue;  // both ends on one node (a loop over fewer than loop_end_stride keyframes)
     if (layout.capped && !joined.insert(static_cast<std::int64_t>(std::min(e.a, e.b)) << 32 | std::max(e.a, e.b)).second) continue;
-    // Z between the nodes: node_m <- m by odometry, m <- q by the loop, q <- node_q by odometry.
-    const Eigen::Isometry3d T_q_nodeq = to_node(odometry_poses, layout, q);
-    e.Z = to_node(odometry_poses, layout, m).inverse() * l->T_match_query * T_q_nodeq;
+    // Z between the nodes: node_m <- m by odometry, m <- q by the loop, q <- node_q by odometry (a few steps, taken
+    // as exact next to the loop's own uncertainty).
+    e.Z = to_node(odometry_poses, layout, m).inverse() * l->T_match_query * to_node(odometry_poses, layout, q);
     e.sqrt_info = loop_sqrt_info(l->information, config);
-    const auto node_of = [&](std::size_t i) { return static_cast<std::size_t>(layout.anchors[static_cast<std::size_t>(layout.nearest_node[i])]); };
-    if (!layout.retired.empty() && (layout.retired[m] || layout.retired[q])) {
-      // An end moved off a retired keyframe may be many steps from its node: Z = A B C (A = T_nodem_m, B the loop,
-      // C = T_q_nodeq) carries all three uncertainties, Cov = Ad((BC)^-1) Cov_A Ad^T + Ad(C^-1) Cov_B Ad^T + Cov_C.
-      const Matrix6d cov_loop = (e.sqrt_info.transpose() * e.sqrt_info).inverse();
-      const Matrix6d Ad_BC = adjoint((l->T_match_query * T_q_nodeq).inverse()), Ad_C = adjoint(T_q_nodeq.inverse());
-      const Matrix6d cov = Ad_BC * chain_covariance(odometry_poses, odometry_covariance, node_of(m), m) * Ad_BC.transpose() +
-                           Ad_C * cov_loop * Ad_C.transpose() + chain_covariance(odometry_poses, odometry_covariance, q, node_of(q));
-      e.sqrt_info = sqrt_of_information(cov.inverse());
-    }
     e.robust = l->robust;
     edges.push_back(e);
   }
@@ -244,7 +218,7 @@ PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odomet
                                     const std::vector<LoopConstraint>& loops, const std::vector<Eigen::Isometry3d>& initial_guess,
                                     const PoseGraphConfig& config, const std::vector<PlaneObservation>& planes,
                                     const std::vector<Eigen::Matrix<double, 6, 6>>& odometry_information,
-                                    const std::vector<PoseIndex>& segment_starts, const std::vector<PoseIndex>& retired) {
+                                    const std::vector<PoseIndex>& segment_starts) {
   Stopwatch watch;
   PoseGraphResult result;
   const std::size_t n = odometry_poses.size();
@@ -272,12 +246,12 @@ PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odomet
 
   const OdometryCovariance odometry_covariance(odometry_poses, residuals, odometry_information, config);
   const std::vector<const LoopConstraint*> loops_in_range = detail::valid_loops(loops, n);
-  const NodeLayout layout = detail::choose_nodes(n, loops_in_range, planes, config, segment_starts, retired);
+  const NodeLayout layout = detail::choose_nodes(n, loops_in_range, planes, config, segment_starts);
 
   std::vector<GraphEdge> edges;
   edges.reserve(layout.anchors.size() + loops_in_range.size());  // one allocation, no doubling copies
   add_odometry_chain_edges(odometry_poses, layout.anchors, odometry_covariance, edges);
-  add_loop_edges(loops_in_range, odometry_poses, layout, odometry_covariance, config, edges);
+  add_loop_edges(loops_in_range, odometry_poses, layout, config, edges);
   const std::vector<PlaneObservation> node_planes = planes_on_nodes(planes, odometry_poses, layout);
 
   std::vector<Eigen::Isometry3d> nodes;

@@ -99,14 +99,11 @@ struct PoseGraphResult {
 /// empty -> odometry). odometry_information, when non-empty, gives each edge (i-1, i) its 6x6 information in
 /// (t, r) order at index i and replaces the residual-based one. segment_starts: poses whose step (i-1, i) joins two
 /// odometry segments (sessions) rather than measuring motion; i-1 and i are always solved as nodes, so no loop end or
-/// plane observation is moved across the join (its weak information is given in odometry_information). retired
-/// (sorted): keyframes that are never nodes (area-bounded maps: LoopCorrector::retire); their odometry steps join
-/// the chains between nodes and their loop ends move to the nearest node with the odometry's uncertainty between them,
-/// so the solve's size follows the kept keyframes while no step or loop is dropped.
+/// plane observation is moved across the join (its weak information is given in odometry_information).
 PoseGraphResult optimize_pose_graph(const std::vector<Eigen::Isometry3d>& odometry_poses, const std::vector<double>& residuals,
                                     const std::vector<LoopConstraint>& loops, const std::vector<Eigen::Isometry3d>& initial_guess,
                                     const PoseGraphConfig& config, const std::vector<PlaneObservation>& planes = {},
                                     const std::vector<Eigen::Matrix<double, 6, 6>>& odometry_information = {},
-                                    const std::vector<PoseIndex>& segment_starts = {}, const std::vector<PoseIndex>& retired = {});
+                                    const std::vector<PoseIndex>& segment_starts = {});
 
 }  // namespace loopd

@@ -36,17 +36,12 @@ struct NodeLayout {
   std::vector<int> nearest_node;  ///< per keyframe: its nearest node (itself when it is one)
   bool reduce = false;            ///< false: every keyframe is a node
   bool capped = false;            ///< max_nodes made the nodes sparser than the loops: one loop edge per node pair
-  /// Per keyframe: retired, so never a node (empty when none is). A loop end moved off one to its node, however far,
-  /// carries the odometry's uncertainty between them.
-  std::vector<char> retired;
 };
 
 /// @brief Chooses the nodes: the carrying keyframes when they are few (reduce_chains), every loop_end_stride-th
-/// keyframe when loop ends are dense, else every keyframe; both poses of every segment join are always nodes; a
-/// retired keyframe (`retired`, sorted) never is, except the first and the last.
+/// keyframe when loop ends are dense, else every keyframe; both poses of every segment join are always nodes.
 NodeLayout choose_nodes(std::size_t n, const std::vector<const LoopConstraint*>& loops, const std::vector<PlaneObservation>& planes,
-                        const PoseGraphConfig& config, const std::vector<PoseIndex>& segment_starts = {},
-                        const std::vector<PoseIndex>& retired = {});
+                        const PoseGraphConfig& config, const std::vector<PoseIndex>& segment_starts = {});
 
 /// @brief Odometry from keyframe i to its node (identity for a node).
 Eigen::Isometry3d to_node(const std::vector<Eigen::Isometry3d>& odometry_poses, const NodeLayout& layout, std::size_t i);

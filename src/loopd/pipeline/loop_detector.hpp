@@ -164,9 +164,8 @@ class LoopDetector {
   // Resuming from a map store: the engine replays what the store holds, in the order it happened (each keyframe, then
   // the decisions its query made), and the detector ends in the state it had when it stopped. Nothing is verified.
 
-  /// @brief A stored keyframe, placed again as add_keyframe() placed it; `retired` (by the place density policy): it
-  /// comes back as retire_keyframe() leaves one.
-  void restore_keyframe(const KeyframeRecord& record, bool retired = false);
+  /// @brief A stored keyframe, placed again as add_keyframe() placed it.
+  void restore_keyframe(const KeyframeRecord& record);
   /// @brief A stored decision of the newest restored keyframe, counted again; an accepted one becomes a loop edge again
   /// with `information` (its correction comes from resume_correction() or is made again by reapply_loop()), unless
   /// `revoked` (the loop ledger revoked it before the stored correction): then it is held aside as set_revoked_loops() holds it.
@@ -211,9 +210,8 @@ class LoopDetector {
   /// corrected position whose sessions share its map frame, `key` excluded, nearest first.
   std::vector<PlaceKeyframe> place_views_near(const KeyframeKey& key, double radius) const;
   /// @brief Retires `key`: its features leave memory, the place index and the gate, so it is never a candidate again;
-  /// its pose stays in the pose sequence and in every trajectory published; in the pose graph it is no longer a node:
-  /// its odometry steps and loops join the kept keyframes' (LoopCorrector::retire), so a solve's size follows the
-  /// kept keyframes and loses no step or loop. False when it is not held or has no features (already retired, or shed).
+  /// its pose stays in the pose sequence with its odometry steps and loops (the graph loses nothing) and in every
+  /// trajectory published. False when it is not held or has no features (already retired, or shed).
   bool retire_keyframe(const KeyframeKey& key);
   std::size_t retired_keyframes() const { return retired_keyframes_; }
 

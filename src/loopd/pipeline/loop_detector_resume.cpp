@@ -5,7 +5,7 @@
 
 namespace loopd {
 
-void LoopDetector::restore_keyframe(const KeyframeRecord& record, bool retired) {
+void LoopDetector::restore_keyframe(const KeyframeRecord& record) {
   // The same placement as add_keyframe(), without candidates: sessions, travel, corrector, gate, place index.
   std::shared_ptr<const KeyframeFeatures> features = record.features && record.features->ok ? record.features : nullptr;
   KeyframeInput input;
@@ -18,7 +18,6 @@ void LoopDetector::restore_keyframe(const KeyframeRecord& record, bool retired) 
   const Eigen::Isometry3d T_map_query = enter_pose_sequence(input, features.get(), &record.step, &step);
   const KeyframeRecord& placed = place_keyframe(input, std::move(features), T_map_query, step);
   add_to_gate(placed, T_map_query.translation());
-  if (retired && corrector_.retire(pose_index(record.key))) ++retired_keyframes_;
 }
 
 void LoopDetector::expect_decisions(const std::vector<LoopDecision>& cut_off) {

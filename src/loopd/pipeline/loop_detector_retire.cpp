@@ -39,7 +39,6 @@ bool LoopDetector::retire_keyframe(const KeyframeKey& key) {
   if (cache_) cache_->erase(key);
   // The gate holds one entry per keyframe record, in the same order (place_keyframe, restore_keyframe).
   if (gate_.size() == keyframes_.size()) gate_.retire(*slot);
-  corrector_.retire(pose_index(key));
   ++retired_keyframes_;
   return true;
 }

@@ -125,7 +125,7 @@ ResumeSummary resume_detector(MapStore& store, LoopDetector& detector, KeyframeL
       thin->prepared_in_store = true;
       k.record.features = std::move(thin);
     }
-    detector.restore_keyframe(k.record, k.retired);
+    detector.restore_keyframe(k.record);
     ++summary.keyframes;
     if (k.retired) ++summary.keyframes_retired;
     summary.stored.push_back({k.record.key, k.record.utime, k.record.T_odom_sensor, k.record.scan_fingerprint});
