@@ -12,6 +12,7 @@
 #include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <unistd.h>
 
@@ -340,6 +341,67 @@ TEST_CASE("on a PostgreSQL map, another town's drive with the first one's scan t
   CHECK(status.sessions_opened == 1);
   CHECK(status.keyframes_skipped == 0);
   CHECK(status.map_write_failures == 0);
+}
+
+TEST_CASE("on a PostgreSQL map, --localize through a role with SELECT rights only: localized, every table unchanged") {
+  loopd::test::PostgresServer server;
+  if (!server.start()) {
+    if (server.binaries_missing()) {
+      WARN("PostgreSQL server binaries missing: skipped (" << server.reason() << ")");
+      return;
+    }
+    FAIL("PostgreSQL test server did not start: " << server.reason());
+  }
+  const std::string uri = server.create_database("localize");
+  REQUIRE(!uri.empty());
+  TempDir dir("loopd_localize_pg");
+  const fs::path& d = dir.path;
+  simulate(d / "s1.lcmlog", 3, 1, 400);
+  simulate(d / "s2.lcmlog", 3, 2, 300);  // the same town another day, from elsewhere, the other way round
+  replay(d / "s1.lcmlog", d / "o1.lcmlog", uri);
+  // A role that may read the map and nothing else, as a production vehicle would be given.
+  REQUIRE(server.sql(uri, "CREATE ROLE map_reader LOGIN PASSWORD 'reader1'; GRANT SELECT ON ALL TABLES IN SCHEMA public TO map_reader"));
+  const std::string reader = server.uri_as("map_reader", "reader1", "localize");
+  const auto digest = [&] {  // every table's rows, as md5 of its sorted rows
+    const std::optional<std::string> tables = server.query(uri, "SELECT tablename FROM pg_tables WHERE schemaname = 'public' ORDER BY 1");
+    REQUIRE(tables);
+    std::string all;
+    std::istringstream lines(*tables);
+    for (std::string table; std::getline(lines, table);) {
+      const std::optional<std::string> rows =
+          server.query(uri, "SELECT count(*) || ' ' || coalesce(md5(string_agg(md5(t::text), '' ORDER BY md5(t::text))), '') FROM " + table + " t");
+      REQUIRE(rows);
+      all += table + " " + *rows + "\n";
+    }
+    return all;
+  };
+  const std::string before = digest();
+  INFO(before);
+  REQUIRE(before.find("keyframes ") != std::string::npos);
+
+  run(kBin + "/daemon/loopd --sensor vlp16 --quiet --localize --replay " + (d / "s2.lcmlog").string() + " --output " + (d / "l2.lcmlog").string() +
+      " --map '" + reader + "'");
+  const std::vector<loopd::localization_t> placed = localizations(d / "l2.lcmlog");
+  REQUIRE(placed.size() >= 100);
+  CHECK(placed.back().localized);
+  CHECK(placed.back().loops_to_map >= 10);
+  const nlohmann::json j = evaluate("--drive " + (d / "s1.lcmlog").string() + " --drive " + (d / "s2.lcmlog").string() + " --results " +
+                                    (d / "o1.lcmlog").string() + " --results " + (d / "l2.lcmlog").string());
+  INFO(j.dump(1));
+  CHECK(j["sessions_aligned"] == 1);
+  CHECK(j["inter_session_loops_correct"] == j["inter_session_loops_accepted"]);
+  CHECK(j["session_alignment_error_m"].get<double>() < 0.2);
+  CHECK(digest() == before);  // nothing written
+
+  // The same role cannot map: loopd says why and the map stays as it was.
+  int rc = 0;
+  const std::string out = loopd::test::run_command(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + (d / "s2.lcmlog").string() +
+                                                       " --output " + (d / "m2.lcmlog").string() + " --map '" + reader + "' 2>&1",
+                                                   &rc);
+  INFO(out);
+  CHECK(rc != 0);
+  CHECK(out.find("permission denied") != std::string::npos);
+  CHECK(digest() == before);
 }
 
 TEST_CASE("an odometry reset mid-drive opens a new session that loops re-anchor to the map") {

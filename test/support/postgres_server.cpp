@@ -10,6 +10,12 @@
 
 namespace loopd::test {
 namespace {
+/// A text as one single-quoted shell word.
+std::string shell_quoted(const std::string& text) {
+  std::string quoted = "'";
+  for (char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
 
 constexpr int kBinariesMissing = 3;  // scripts/pg-local's exit code when the server binaries are not installed
 
@@ -66,7 +72,11 @@ bool PostgresServer::attach(const std::string& dir) {
 }
 
 std::string PostgresServer::uri_with_password(const std::string& password, const std::string& database) const {
-  return "postgresql://loopd:" + password + "@/" + database + "?host=" + dir_;
+  return uri_as("loopd", password, database);
+}
+
+std::string PostgresServer::uri_as(const std::string& user, const std::string& password, const std::string& database) const {
+  return "postgresql://" + user + ":" + password + "@/" + database + "?host=" + dir_;
 }
 
 std::string PostgresServer::create_database(const std::string& name) {
@@ -80,10 +90,12 @@ std::string PostgresServer::create_schema(const std::string& name) {
   return uri() + "&options=-csearch_path%3D" + name;
 }
 
-bool PostgresServer::sql(const std::string& uri, const std::string& sql) {
-  std::string quoted = "'";
-  for (char c : sql) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return pg_local("psql '" + uri + "' -c " + quoted + "'");
+bool PostgresServer::sql(const std::string& uri, const std::string& sql) { return pg_local("psql '" + uri + "' -c " + shell_quoted(sql)); }
+
+std::optional<std::string> PostgresServer::query(const std::string& uri, const std::string& sql) {
+  std::string rows;
+  if (!pg_local("psql '" + uri + "' -t -A -c " + shell_quoted(sql), &rows)) return std::nullopt;
+  return rows;
 }
 
 bool PostgresServer::stop(const std::string& mode) { return pg_local("stop " + dir_ + " --mode " + mode); }

@@ -1,6 +1,7 @@
 #pragma once
 // A PostgreSQL server of the test's own (scripts/pg-local): data, log and socket in a fresh temp folder, no TCP, a
 // password on the socket; stopped and removed with the object. Tests skip (WARN) when the server binaries are missing.
+#include <optional>
 #include <string>
 
 namespace loopd::test {
@@ -31,6 +32,11 @@ class PostgresServer {
   std::string create_schema(const std::string& name);
   /// @brief Runs `sql` on the database `uri` names with psql; false and reason() when it fails.
   bool sql(const std::string& uri, const std::string& sql);
+  /// @brief Runs one query with psql and returns its rows unaligned (`|` between fields, a line per row, no header);
+  /// nullopt and reason() when it fails.
+  std::optional<std::string> query(const std::string& uri, const std::string& sql);
+  /// @brief The URI of `database` as another role (e.g. one the test created with fewer rights).
+  std::string uri_as(const std::string& user, const std::string& password, const std::string& database = "loopd") const;
   /// @brief The folder that holds the socket (a URI's host).
   const std::string& dir() const { return dir_; }
   /// @brief Stops the server: "fast" (sessions closed cleanly) or "immediate" (as a crash).

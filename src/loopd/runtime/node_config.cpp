@@ -32,7 +32,6 @@ std::optional<std::string> NodeConfig::validate() const {
   if (!(map_retry_period >= 0.1 && map_retry_period <= 600.0)) return "map.retry_period must be in [0.1, 600] s";
   if (!(ledger_poll >= 0.1 && ledger_poll <= 600.0)) return "map.ledger_poll must be in [0.1, 600] s";
   if (localize && map.uri.empty()) return "map.localize (--localize) needs a map (map.path / --map)";
-  if (localize && names_shared_map(map.uri)) return "map.localize works on an SQLite map for now, not on a shared postgresql:// map";
   return std::nullopt;
 }
 

@@ -51,6 +51,8 @@ struct NodeConfig {
   double ledger_poll = 1.0;  ///< map.ledger_poll [s]: how often a running loopd reads the map's loop ledger (loopd-map loops --revoke)
   /// map.localize (--localize): the map is opened read-only and never changed; this run's keyframes are placed in it
   /// by loops to its keyframes (found without a pose prior, then gated) and published as a new session, in memory only.
+  /// On a shared postgresql:// map it reads one vehicle's sessions (fleet.vehicle, 0 by default) on a read-only
+  /// connection (a role with SELECT rights only is enough) and does not join the fleet.
   bool localize = false;
   std::optional<std::string> validate() const;
 };

@@ -120,7 +120,9 @@ bool NodeRuntime::resume(const EngineConfig& config, const std::string& origin, 
 }
 
 bool NodeRuntime::join_fleet(const EngineConfig& config, EngineSink& output) {
-  if (node_.fleet.vehicle < 0 || !store_) return true;
+  // Localizing in a shared map reads one vehicle's sessions (fleet.vehicle, 0 by default) as that vehicle left them and
+  // writes nothing: it is not one of the fleet.
+  if (node_.fleet.vehicle < 0 || !store_ || node_.localize) return true;
   // The fleet thread on its own connection feeds the engine the other vehicles' keyframes and publishes the joint
   // correction through `output`.
   const KeyframeLoad remote_load = node_.map_cache_mb > 0.0 ? KeyframeLoad::kDescriptor : KeyframeLoad::kFull;
