@@ -86,7 +86,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "loopd: lidar loop-closure daemon. Listens for scans and odometry poses on LCM, detects and verifies loops\n"
       "(M2DP + plane-based 4PCS + GICP + Hungarian check), publishes loop events and corrected trajectories."};
-  std::string lcm_url, config_path, replay_log, output_log, sensor, map_path;
+  std::string lcm_url, config_path, replay_log, output_log, sensor, map_path, http_listen;
   int threads = -1, vehicle = -2;
   bool print_config = false, quiet = false, localize = false;
   app.set_version_flag("--version", std::string("loopd ") + LOOPD_VERSION);
@@ -103,6 +103,8 @@ int main(int argc, char** argv) {
   app.add_option("--vehicle", vehicle,
                  "fleet vehicle number (0-2146) on a shared postgresql:// map: its sessions, the others' keyframes as loop "
                  "candidates, one joint correction (overrides fleet.vehicle)");
+  app.add_option("--http", http_listen,
+                 "serve /metrics (Prometheus) and /healthz on PORT (loopback) or IPV4:PORT (overrides http.listen; docs/metrics.md)");
   app.add_flag("--localize", localize,
                "with --map: localize in the map without changing it (opened read-only; this run's keyframes stay in memory; "
                "overrides map.localize)");
@@ -129,6 +131,7 @@ int main(int argc, char** argv) {
   if (!map_path.empty()) config.node.map.uri = map_path;
   if (vehicle != -2) config.node.fleet.vehicle = vehicle;
   if (localize) config.node.localize = true;
+  if (!http_listen.empty()) config.node.http_listen = http_listen;
   config.node.quiet = quiet;
   loopd::apply_fleet(&config);
   if (auto e = config.node.validate()) {

@@ -24,6 +24,7 @@
 #include "message_convert.hpp"
 #include "loopd/runtime/node_runtime.hpp"
 #include "output_messages.hpp"
+#include "status_endpoints.hpp"
 #include "scan_decode.hpp"
 #include "systemd_notify.hpp"
 #include "trajectory_publisher.hpp"
@@ -299,8 +300,13 @@ void fill_summary(RunSummary* summary, LoopdEngine& engine, InputHandler& h) {
 /// stuck LCM loop stops the pings too. Without NOTIFY_SOCKET only the stall log lines remain.
 class ServiceLink {
  public:
-  ServiceLink(const NodeConfig& node, NodeRuntime& runtime, const std::atomic<std::int64_t>& ingest_steps)
-      : node_(node), runtime_(runtime), engine_(runtime.engine()), ingest_steps_(ingest_steps), watchdog_(notifier_, node.watchdog_stall) {
+  ServiceLink(const NodeConfig& node, NodeRuntime& runtime, const std::atomic<std::int64_t>& ingest_steps, StatusEndpoints& endpoints)
+      : node_(node),
+        runtime_(runtime),
+        engine_(runtime.engine()),
+        ingest_steps_(ingest_steps),
+        endpoints_(endpoints),
+        watchdog_(notifier_, node.watchdog_stall) {
     if (notifier_.watchdog_usec() > 0 && log_enabled(LogLevel::kInfo))
       std::fprintf(stderr, "loopd: systemd watchdog: a ping every %.1f s while the pipeline makes progress (stall limit %.1f s)\n",
                    notifier_.ping_interval_s(), node.watchdog_stall);
@@ -315,7 +321,8 @@ class ServiceLink {
     const bool engine_pending = p.workers.pending || p.sequential.pending;
     // The ingest thread loops at least every 100 ms; it may wait on the engine's backpressure, which the engine's
     // stages answer for, so it is only judged while the engine has nothing pending.
-    watchdog_.poll({{"sequential stage", p.sequential}, {"worker pool", p.workers}, {"ingest thread", {ingest_steps_.load(), !engine_pending}}}, now);
+    endpoints_.set_alive(watchdog_.poll(
+        {{"sequential stage", p.sequential}, {"worker pool", p.workers}, {"ingest thread", {ingest_steps_.load(), !engine_pending}}}, now));
     if (now < next_status_s_) return;
     next_status_s_ = now + node_.status_period;
     notifier_.status(status_line());
@@ -336,6 +343,7 @@ class ServiceLink {
   NodeRuntime& runtime_;
   LoopdEngine& engine_;
   const std::atomic<std::int64_t>& ingest_steps_;
+  StatusEndpoints& endpoints_;
   SystemdNotifier notifier_;
   PipelineWatchdog watchdog_;
   double next_status_s_ = 0.0;
@@ -400,6 +408,15 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   LoopdEngine& engine = runtime.engine();
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
+  StatusEndpoints endpoints;
+  endpoints.update(make_status(wall_utime(), wall_s() - start, engine.stats(), counters(handler, engine.stats()), resident_memory_bytes(),
+                               runtime.map_status(engine.stats())));
+  std::string http_error;
+  const std::unique_ptr<HttpServer> http = serve_status(node.http_listen, endpoints, &http_error);
+  if (!node.http_listen.empty() && !http) {
+    std::cerr << "loopd: --http " << node.http_listen << ": " << http_error << std::endl;
+    return 2;
+  }
 
   std::mutex qm;
   std::condition_variable qcv;
@@ -443,8 +460,9 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
         next_status = now + node.status_period;
         const EngineStats s = engine.stats();
         health_log.update(s, node.log_every_n);
-        sink.publish(node.status_channel, wall_utime(),
-                     make_status(wall_utime(), now - start, s, counters(handler, s), resident_memory_bytes(), runtime.map_status(s)));
+        const status_t status = make_status(wall_utime(), now - start, s, counters(handler, s), resident_memory_bytes(), runtime.map_status(s));
+        endpoints.update(status);
+        sink.publish(node.status_channel, wall_utime(), status);
       }
     }
   });
@@ -453,7 +471,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
     std::cerr << "loopd: listening on " << node.scan_channel << ", " << node.pose_channel
               << (engine_config.imu.enabled ? " and " + node.imu_channel : std::string()) << " (" << node.lcm_url
               << "), descriptor device: " << engine.stats().device << std::endl;
-  ServiceLink service(node, runtime, ingest_steps);
+  ServiceLink service(node, runtime, ingest_steps, endpoints);
   service.ready();  // the map is open and resumed, both channels subscribed
   const bool lcm_ok = handle_lcm_until_stopped(lcm, stop, service);
   service.stopping();  // before the engine drains and the map closes
@@ -504,6 +522,13 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   LoopdEngine& engine = runtime.engine();
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
+  StatusEndpoints endpoints;  // --http on a replay: the figures of its newest status (data time)
+  std::string http_error;
+  const std::unique_ptr<HttpServer> http = serve_status(node.http_listen, endpoints, &http_error);
+  if (!node.http_listen.empty() && !http) {
+    std::cerr << "loopd: --http " << node.http_listen << ": " << http_error << std::endl;
+    return 2;
+  }
   std::int64_t last_data_utime = 0, first_data_utime = 0, next_status_utime = 0;
   handler.deliver = [&](Input&& in) {
     ingest(engine, handler, in, node, &last_data_utime);
@@ -513,9 +538,10 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
       next_status_utime = last_data_utime + static_cast<std::int64_t>(node.status_period * 1e6);
       EngineStats s = engine.stats();
       health_log.update(s, node.log_every_n);
-      sink->publish(node.status_channel, last_data_utime,
-                    make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s),
-                                resident_memory_bytes(), runtime.map_status(s)));
+      const status_t status = make_status(last_data_utime, static_cast<double>(last_data_utime - first_data_utime) * 1e-6, s, counters(handler, s),
+                                          resident_memory_bytes(), runtime.map_status(s));
+      endpoints.update(status);
+      sink->publish(node.status_channel, last_data_utime, status);
     }
     return true;
   };

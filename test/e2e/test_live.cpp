@@ -7,7 +7,9 @@
 #include <chrono>
 #include <csignal>
 #include <filesystem>
+#include <map>
 #include <set>
+#include <sstream>
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
@@ -16,6 +18,7 @@
 #include <loopd/status_t.hpp>
 
 #include "lcm_log.hpp"
+#include "support/http_client.hpp"
 #include "support/process.hpp"
 #include "support/hostile_log.hpp"
 #include "message_convert.hpp"
@@ -33,6 +36,18 @@ struct Published {
   status_t status{};
   bool has_status = false;
 };
+
+/// The samples of a Prometheus text page, by name with labels (comments left out).
+std::map<std::string, double> parse_metrics(const std::string& text) {
+  std::map<std::string, double> samples;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    const std::size_t space = line.rfind(' ');
+    if (space != std::string::npos) samples[line.substr(0, space)] = std::stod(line.substr(space + 1));
+  }
+  return samples;
+}
 
 Published read_published(const std::string& path) {
   Published p;
@@ -70,7 +85,9 @@ TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops n
 
   const std::string port = std::to_string(7700 + getpid() % 200);
   const std::string url = "udpm://239.255.76.67:" + port + "?ttl=0&recv_buf_size=8388608";
-  const pid_t loopd = spawn({kBin + "/daemon/loopd", "--sensor", "vlp16", "--quiet", "--lcm-url", url});
+  const int http_port = 7700 + static_cast<int>(getpid() % 200);  // TCP: apart from the UDP port of the same number
+  const pid_t loopd =
+      spawn({kBin + "/daemon/loopd", "--sensor", "vlp16", "--quiet", "--lcm-url", url, "--http", "127.0.0.1:" + std::to_string(http_port)});
   const pid_t logger =
       spawn({"lcm-logger", "--lcm-url=" + url, "-c", "LOOP_EVENT|CORRECTED_TRAJECTORY|LOOPD_STATUS", "-f", (dir / "live.lcmlog").string()});
   std::this_thread::sleep_for(std::chrono::seconds(2));
@@ -79,6 +96,15 @@ TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops n
   REQUIRE(loopd::test::copy_with_crafted_scans(drive, played, channels::kScan, 200, false) == 3);
   REQUIRE(loopd::test::run_quiet("lcm-logplayer -l '" + url + "' -s 1 -e 'LIDAR_SCAN|ODOMETRY_POSE' " + played) == 0);
   std::this_thread::sleep_for(std::chrono::seconds(4));  // let the workers finish and a status go out
+  // --http while it runs: /healthz, and /metrics from the newest status (idle now: the same counters as the last
+  // status_t published, checked below).
+  const loopd::test::HttpReply health = loopd::test::http_request(http_port, "GET", "/healthz");
+  CHECK(health.status == 200);
+  CHECK(health.body == "ok\n");
+  const loopd::test::HttpReply metrics = loopd::test::http_request(http_port, "GET", "/metrics");
+  CHECK(metrics.status == 200);
+  CHECK(loopd::test::http_request(http_port, "POST", "/metrics").status == 405);
+  CHECK(loopd::test::http_request(http_port, "GET", "/../etc/passwd").status == 404);
   CHECK(loopd::test::stop_process(loopd) == 0);
   loopd::test::stop_process(logger);
 
@@ -95,5 +121,17 @@ TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops n
   CHECK(live.status.shed == 0);
   CHECK(live.accepted.size() >= 10);
   CHECK(live.accepted == replay.accepted);
+  std::map<std::string, double> m = parse_metrics(metrics.body);
+  INFO(metrics.body);
+  CHECK(m["loopd_up"] == 1);
+  CHECK(m["loopd_channel_received_total{channel=\"" + std::string(live.status.channels[0].channel) + "\"}"] == 343);
+  CHECK(m["loopd_channel_malformed_total{channel=\"" + std::string(live.status.channels[0].channel) + "\"}"] == 3);
+  CHECK(m["loopd_channel_received_total{channel=\"" + std::string(live.status.channels[1].channel) + "\"}"] == 340);
+  CHECK(m["loopd_keyframes"] == static_cast<double>(live.status.keyframes));
+  CHECK(m["loopd_loops_accepted_total"] == static_cast<double>(live.status.loops_accepted));
+  CHECK(m["loopd_loops_rejected_total"] == static_cast<double>(live.status.loops_rejected));
+  CHECK(m["loopd_shed_total"] == 0);
+  CHECK(m["loopd_resident_memory_bytes"] > 1e7);
+  CHECK(m.count("loopd_descriptor_device_info{device=\"" + std::string(live.status.device) + "\"}") == 1);
   fs::remove_all(dir);
 }

@@ -2,6 +2,7 @@
 
 #include "loopd/runtime/config_binder.hpp"
 #include "loopd/store/store_uri.hpp"
+#include "loopd/web/http_server.hpp"
 
 #include <cmath>
 
@@ -32,6 +33,7 @@ std::optional<std::string> NodeConfig::validate() const {
   if (!(map_retry_period >= 0.1 && map_retry_period <= 600.0)) return "map.retry_period must be in [0.1, 600] s";
   if (!(ledger_poll >= 0.1 && ledger_poll <= 600.0)) return "map.ledger_poll must be in [0.1, 600] s";
   if (localize && map.uri.empty()) return "map.localize (--localize) needs a map (map.path / --map)";
+  if (std::string e; !http_listen.empty() && !parse_http_listen(http_listen, &e)) return "http.listen (--http): " + e;
   return std::nullopt;
 }
 
@@ -56,6 +58,7 @@ void bind(Binder& b, NodeConfig& n) {
   b.field("map.retry_period", n.map_retry_period);
   b.field("map.ledger_poll", n.ledger_poll);
   b.field("map.localize", n.localize);
+  b.field("http.listen", n.http_listen);
   b.field("fleet.vehicle", n.fleet.vehicle);
   b.field("fleet.poll_interval", n.fleet.poll_interval);
   b.field("fleet.solve_every_keyframes", n.fleet.solve_every_keyframes);

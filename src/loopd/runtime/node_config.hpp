@@ -54,6 +54,8 @@ struct NodeConfig {
   /// On a shared postgresql:// map it reads one vehicle's sessions (fleet.vehicle, 0 by default) on a read-only
   /// connection (a role with SELECT rights only is enough) and does not join the fleet.
   bool localize = false;
+  /// http.listen (--http): serve /metrics and /healthz on "PORT" (loopback) or "IPV4:PORT"; "" = off (docs/metrics.md)
+  std::string http_listen;
   std::optional<std::string> validate() const;
 };
 
