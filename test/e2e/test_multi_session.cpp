@@ -123,6 +123,21 @@ nlohmann::json map_info(const std::string& map) {
   return nlohmann::json::parse(loopd::test::last_line(run(kBin + "/tools/loopd-map/loopd-map --json '" + map + "' info")));
 }
 
+/// Starts the test's own PostgreSQL server with a database `name`; false (with a warning: skip) when the server
+/// binaries are not installed.
+bool start_database(loopd::test::PostgresServer& server, const std::string& name, std::string* uri) {
+  if (!server.start()) {
+    if (server.binaries_missing()) {
+      WARN("PostgreSQL server binaries missing: skipped (" << server.reason() << ")");
+      return false;
+    }
+    FAIL("PostgreSQL test server did not start: " << server.reason());
+  }
+  *uri = server.create_database(name);
+  REQUIRE(!uri->empty());
+  return true;
+}
+
 struct TempDir {
   fs::path path;
   explicit TempDir(const std::string& name) : path(fs::temp_directory_path() / (name + "_" + std::to_string(getpid()))) {
@@ -314,15 +329,8 @@ TEST_CASE("a second drive with the first one's scan times is its own session: th
 
 TEST_CASE("on a PostgreSQL map, another town's drive with the first one's scan times is its own session, stored whole") {
   loopd::test::PostgresServer server;
-  if (!server.start()) {
-    if (server.binaries_missing()) {
-      WARN("PostgreSQL server binaries missing: skipped (" << server.reason() << ")");
-      return;
-    }
-    FAIL("PostgreSQL test server did not start: " << server.reason());
-  }
-  const std::string uri = server.create_database("two_drives");
-  REQUIRE(!uri.empty());
+  std::string uri;
+  if (!start_database(server, "two_drives", &uri)) return;
   TempDir dir("loopd_same_time_pg");
   const fs::path& d = dir.path;
   simulate(d / "s1.lcmlog", 3, 1, 300);
@@ -345,15 +353,8 @@ TEST_CASE("on a PostgreSQL map, another town's drive with the first one's scan t
 
 TEST_CASE("on a PostgreSQL map, --localize through a role with SELECT rights only: localized, every table unchanged") {
   loopd::test::PostgresServer server;
-  if (!server.start()) {
-    if (server.binaries_missing()) {
-      WARN("PostgreSQL server binaries missing: skipped (" << server.reason() << ")");
-      return;
-    }
-    FAIL("PostgreSQL test server did not start: " << server.reason());
-  }
-  const std::string uri = server.create_database("localize");
-  REQUIRE(!uri.empty());
+  std::string uri;
+  if (!start_database(server, "localize", &uri)) return;
   TempDir dir("loopd_localize_pg");
   const fs::path& d = dir.path;
   simulate(d / "s1.lcmlog", 3, 1, 400);
