@@ -399,6 +399,9 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
       sensor_model_from_choice(engine_config.detector.sensor, engine_config.detector.sensor_elevations_deg, engine_config.detector.sensor_columns);
   check_receive_buffer(node.lcm_url, model ? model->rays_per_scan() : 130000);
   const double start = wall_s();
+  StatusEndpoints endpoints;  // --http: served from before the map opens until after it closes
+  std::unique_ptr<HttpServer> http;
+  if (!serve_status(node.http_listen, endpoints, &http)) return 2;
   OutputSink sink(node, &lcm, nullptr, false);  // before the runtime: its engine and writer deliver to it until they go
   NodeRuntime runtime(node);
   if (!runtime.open_map()) return 2;
@@ -408,15 +411,8 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   LoopdEngine& engine = runtime.engine();
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
-  StatusEndpoints endpoints;
   endpoints.update(make_status(wall_utime(), wall_s() - start, engine.stats(), counters(handler, engine.stats()), resident_memory_bytes(),
                                runtime.map_status(engine.stats())));
-  std::string http_error;
-  const std::unique_ptr<HttpServer> http = serve_status(node.http_listen, endpoints, &http_error);
-  if (!node.http_listen.empty() && !http) {
-    std::cerr << "loopd: --http " << node.http_listen << ": " << http_error << std::endl;
-    return 2;
-  }
 
   std::mutex qm;
   std::condition_variable qcv;
@@ -497,6 +493,9 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
     std::cerr << "loopd: " << error << std::endl;
     return 2;
   }
+  StatusEndpoints endpoints;  // --http on a replay: the figures of its newest status (data time)
+  std::unique_ptr<HttpServer> http;
+  if (!serve_status(node.http_listen, endpoints, &http)) return 2;
   LogWriter writer;
   std::unique_ptr<lcm::LCM> publisher;
   std::optional<OutputSink> sink;  // before the runtime: its engine and writer deliver to it until they go
@@ -522,13 +521,6 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   LoopdEngine& engine = runtime.engine();
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
-  StatusEndpoints endpoints;  // --http on a replay: the figures of its newest status (data time)
-  std::string http_error;
-  const std::unique_ptr<HttpServer> http = serve_status(node.http_listen, endpoints, &http_error);
-  if (!node.http_listen.empty() && !http) {
-    std::cerr << "loopd: --http " << node.http_listen << ": " << http_error << std::endl;
-    return 2;
-  }
   std::int64_t last_data_utime = 0, first_data_utime = 0, next_status_utime = 0;
   handler.deliver = [&](Input&& in) {
     ingest(engine, handler, in, node, &last_data_utime);

@@ -78,16 +78,22 @@ std::map<std::string, HttpHandler> StatusEndpoints::routes() {
            }}};
 }
 
-std::unique_ptr<HttpServer> serve_status(const std::string& listen, StatusEndpoints& endpoints, std::string* error) {
-  if (listen.empty()) return nullptr;
-  HttpServerConfig config;
-  const std::optional<HttpListen> where = parse_http_listen(listen, error);
-  if (!where) return nullptr;
-  config.listen = *where;
-  std::unique_ptr<HttpServer> server = HttpServer::start(config, endpoints.routes(), error);
-  if (server && log_enabled(LogLevel::kInfo))
-    std::fprintf(stderr, "loopd: http: %s/metrics and %s/healthz\n", server->url().c_str(), server->url().c_str());
-  return server;
+bool serve_status(const std::string& listen, StatusEndpoints& endpoints, std::unique_ptr<HttpServer>* server) {
+  if (listen.empty()) return true;
+  std::string error;
+  const std::optional<HttpListen> where = parse_http_listen(listen, &error);
+  if (where) {
+    HttpServerConfig config;
+    config.listen = *where;
+    *server = HttpServer::start(config, endpoints.routes(), &error);
+  }
+  if (!*server) {
+    std::fprintf(stderr, "loopd: --http %s: %s\n", listen.c_str(), error.c_str());
+    return false;
+  }
+  if (log_enabled(LogLevel::kInfo))
+    std::fprintf(stderr, "loopd: http: %s/metrics and %s/healthz\n", (*server)->url().c_str(), (*server)->url().c_str());
+  return true;
 }
 
 }  // namespace loopd

@@ -32,7 +32,8 @@ class StatusEndpoints {
   std::atomic<bool> alive_{true};
 };
 
-/// @brief Starts the server for --http `listen` ("" = none: null, no error); logs its URL. Null and `error` on failure.
-std::unique_ptr<HttpServer> serve_status(const std::string& listen, StatusEndpoints& endpoints, std::string* error);
+/// @brief Starts the server of `endpoints` for --http `listen` into `*server` and logs its URL ("" = none: true, no
+/// server). False, with the reason logged, when it cannot listen: loopd then stops (exit 2).
+bool serve_status(const std::string& listen, StatusEndpoints& endpoints, std::unique_ptr<HttpServer>* server);
 
 }  // namespace loopd

@@ -77,3 +77,15 @@ TEST_CASE("a program given no arguments at all where it needs some exits 2, neve
   }
   CHECK(status_of(kBin + "/tools/loopd-bench/loopd-bench no-such-benchmark") == 2);
 }
+
+TEST_CASE("loopd --http that cannot listen, or is not an address, exits 2 and says why") {
+  std::string out;
+  CHECK(status_of(kBin + "/daemon/loopd --http nope --replay x.lcmlog 2>&1", &out) == 2);
+  CHECK(out.find("http.listen (--http): 'nope' is not PORT or IPV4:PORT") != std::string::npos);
+  // An address this machine does not have (TEST-NET-3): refused before anything is read.
+  const std::string drive = "/tmp/loopd-exit-codes-http.lcmlog";
+  REQUIRE(status_of(kBin + "/tools/loopd-sim/loopd-sim --scans 3 --quiet --out " + drive) == 0);
+  CHECK(status_of(kBin + "/daemon/loopd --http 203.0.113.254:9 --replay " + drive + " --output /tmp/loopd-exit-codes.lcmlog 2>&1", &out) == 2);
+  CHECK(out.find("loopd: --http 203.0.113.254:9: cannot listen on 203.0.113.254:9") != std::string::npos);
+  std::filesystem::remove(drive);
+}
