@@ -9,49 +9,57 @@ namespace loopd {
 
 std::string metrics_of(const status_t& s, bool alive) {
   MetricsText m;
-  m.gauge("loopd_up", "1 while the pipeline makes progress (as /healthz), 0 when a stage stalls.", alive ? 1 : 0);
-  m.gauge("loopd_uptime_seconds", "Seconds since loopd started (data time in a replay).", s.uptime_s);
-  m.gauge("loopd_status_timestamp_seconds", "Time of the status these figures come from [s since the epoch].", static_cast<double>(s.utime) * 1e-6);
-  std::vector<std::pair<std::string, double>> received, accepted, malformed, dropped;
-  for (const channel_stats_t& c : s.channels) {
-    received.emplace_back(c.channel, static_cast<double>(c.received));
-    accepted.emplace_back(c.channel, static_cast<double>(c.accepted));
-    malformed.emplace_back(c.channel, static_cast<double>(c.malformed));
-    dropped.emplace_back(c.channel, static_cast<double>(c.dropped));
-  }
-  m.counter("loopd_channel_received_total", "Messages received per input channel.", "channel", received);
-  m.counter("loopd_channel_accepted_total", "Messages accepted per input channel.", "channel", accepted);
-  m.counter("loopd_channel_malformed_total", "Messages that did not decode per input channel (counted, skipped).", "channel", malformed);
-  m.counter("loopd_channel_dropped_total", "Messages dropped per input channel (input queue full).", "channel", dropped);
-  m.gauge("loopd_pending_scans", "Scans waiting for a pose.", s.pending_scans);
-  m.gauge("loopd_queue_depth", "Keyframe jobs waiting for a worker.", s.queue_depth);
-  m.counter("loopd_shed_total", "Keyframes shed (pose kept, no features) because the queue was full.", static_cast<double>(s.shed));
-  m.counter("loopd_invalid_scans_total", "Scans discarded: NaN-only, empty, duplicate or out-of-order time.", static_cast<double>(s.invalid_scans));
-  m.counter("loopd_scans_lost_estimate_total", "Scans that never arrived, estimated from gaps in the scan rate.",
-            static_cast<double>(s.scans_lost_estimate));
-  m.counter("loopd_clock_jumps_total", "Times the data clock jumped and loopd followed it.", static_cast<double>(s.clock_jumps));
-  m.counter("loopd_odometry_resets_total", "Odometry resets (the trajectory continued from the last pose before).",
-            static_cast<double>(s.odometry_resets));
-  m.counter("loopd_sensor_changes_total", "Changes of the sensor layout beyond normal variation.", static_cast<double>(s.sensor_changes));
-  m.gauge("loopd_keyframes", "Keyframes held (restored from the map included).", static_cast<double>(s.keyframes));
-  m.counter("loopd_keyframes_deskewed_total", "Keyframe scans motion-compensated from their point times.", static_cast<double>(s.keyframes_deskewed));
-  m.counter("loopd_deskew_skipped_total", "Keyframe scans with point times left as they came.", static_cast<double>(s.deskew_skipped));
-  m.counter("loopd_keyframes_skipped_total", "Scans recognised as keyframes the map already holds and skipped.",
-            static_cast<double>(s.keyframes_skipped));
-  m.gauge("loopd_bytes_per_keyframe", "Bytes held per keyframe, averaged.", static_cast<double>(s.bytes_per_keyframe));
-  m.counter("loopd_loops_accepted_total", "Loop candidates accepted (restored from the map included).", static_cast<double>(s.loops_accepted));
-  m.counter("loopd_loops_rejected_total", "Loop candidates rejected (restored from the map included).", static_cast<double>(s.loops_rejected));
-  m.counter("loopd_events_not_republished_total", "Loop events decided again the same after a restart and not published twice.",
-            static_cast<double>(s.events_not_republished));
-  m.gauge("loopd_session", "The session this run's keyframes go to.", static_cast<double>(s.session));
-  m.counter("loopd_sessions_opened_total", "Sessions this run opened (another drive, an odometry reset).", static_cast<double>(s.sessions_opened));
-  m.gauge("loopd_resident_memory_bytes", "Resident memory of the process [bytes].", static_cast<double>(s.memory_bytes));
-  m.gauge("loopd_map_bytes", "Bytes of the map on disk (0 in memory only).", static_cast<double>(s.map_bytes));
-  m.gauge("loopd_map_cached_feature_bytes", "Bytes of keyframe features held in memory.", static_cast<double>(s.map_cached_bytes));
-  m.counter("loopd_map_write_failures_total", "Map writes given up (non-zero: the map is no longer complete).",
-            static_cast<double>(s.map_write_failures));
-  m.counter("loopd_map_write_retries_total", "Map writes tried again (map busy or its server away).", static_cast<double>(s.map_write_retries));
-  m.gauge("loopd_map_writes_buffered", "Map writes waiting in memory for the map.", static_cast<double>(s.map_writes_buffered));
+  const auto per_channel = [&](const char* name, const char* help, std::int64_t channel_stats_t::*count) {
+    std::vector<std::pair<std::string, double>> samples;
+    for (const channel_stats_t& c : s.channels) samples.emplace_back(c.channel, static_cast<double>(c.*count));
+    m.counter(name, help, "channel", samples);
+  };
+  struct Figure {
+    bool counter;  ///< else a gauge
+    const char* name;
+    const char* help;
+    double value;
+  };
+  const auto v = [](auto x) { return static_cast<double>(x); };
+  const Figure before_channels[] = {
+      {false, "loopd_up", "1 while the pipeline makes progress (as /healthz), 0 when a stage stalls.", alive ? 1.0 : 0.0},
+      {false, "loopd_uptime_seconds", "Seconds since loopd started (data time in a replay).", s.uptime_s},
+      {false, "loopd_status_timestamp_seconds", "Time of the status these figures come from [s since the epoch].", v(s.utime) * 1e-6},
+  };
+  const Figure after_channels[] = {
+      {false, "loopd_pending_scans", "Scans waiting for a pose.", v(s.pending_scans)},
+      {false, "loopd_queue_depth", "Keyframe jobs waiting for a worker.", v(s.queue_depth)},
+      {true, "loopd_shed_total", "Keyframes shed (pose kept, no features) because the queue was full.", v(s.shed)},
+      {true, "loopd_invalid_scans_total", "Scans discarded: NaN-only, empty, duplicate or out-of-order time.", v(s.invalid_scans)},
+      {true, "loopd_scans_lost_estimate_total", "Scans that never arrived, estimated from gaps in the scan rate.", v(s.scans_lost_estimate)},
+      {true, "loopd_clock_jumps_total", "Times the data clock jumped and loopd followed it.", v(s.clock_jumps)},
+      {true, "loopd_odometry_resets_total", "Odometry resets (the trajectory continued from the last pose before).", v(s.odometry_resets)},
+      {true, "loopd_sensor_changes_total", "Changes of the sensor layout beyond normal variation.", v(s.sensor_changes)},
+      {false, "loopd_keyframes", "Keyframes held (restored from the map included).", v(s.keyframes)},
+      {true, "loopd_keyframes_deskewed_total", "Keyframe scans motion-compensated from their point times.", v(s.keyframes_deskewed)},
+      {true, "loopd_deskew_skipped_total", "Keyframe scans with point times left as they came.", v(s.deskew_skipped)},
+      {true, "loopd_keyframes_skipped_total", "Scans recognised as keyframes the map already holds and skipped.", v(s.keyframes_skipped)},
+      {false, "loopd_bytes_per_keyframe", "Bytes held per keyframe, averaged.", v(s.bytes_per_keyframe)},
+      {true, "loopd_loops_accepted_total", "Loop candidates accepted (restored from the map included).", v(s.loops_accepted)},
+      {true, "loopd_loops_rejected_total", "Loop candidates rejected (restored from the map included).", v(s.loops_rejected)},
+      {true, "loopd_events_not_republished_total", "Loop events decided again the same after a restart and not published twice.",
+       v(s.events_not_republished)},
+      {false, "loopd_session", "The session this run's keyframes go to.", v(s.session)},
+      {true, "loopd_sessions_opened_total", "Sessions this run opened (another drive, an odometry reset).", v(s.sessions_opened)},
+      {false, "loopd_resident_memory_bytes", "Resident memory of the process [bytes].", v(s.memory_bytes)},
+      {false, "loopd_map_bytes", "Bytes of the map on disk (0 in memory only).", v(s.map_bytes)},
+      {false, "loopd_map_cached_feature_bytes", "Bytes of keyframe features held in memory.", v(s.map_cached_bytes)},
+      {true, "loopd_map_write_failures_total", "Map writes given up (non-zero: the map is no longer complete).", v(s.map_write_failures)},
+      {true, "loopd_map_write_retries_total", "Map writes tried again (map busy or its server away).", v(s.map_write_retries)},
+      {false, "loopd_map_writes_buffered", "Map writes waiting in memory for the map.", v(s.map_writes_buffered)},
+  };
+  const auto add = [&m](const Figure& f) { f.counter ? m.counter(f.name, f.help, f.value) : m.gauge(f.name, f.help, f.value); };
+  for (const Figure& f : before_channels) add(f);
+  per_channel("loopd_channel_received_total", "Messages received per input channel.", &channel_stats_t::received);
+  per_channel("loopd_channel_accepted_total", "Messages accepted per input channel.", &channel_stats_t::accepted);
+  per_channel("loopd_channel_malformed_total", "Messages that did not decode per input channel (counted, skipped).", &channel_stats_t::malformed);
+  per_channel("loopd_channel_dropped_total", "Messages dropped per input channel (input queue full).", &channel_stats_t::dropped);
+  for (const Figure& f : after_channels) add(f);
   m.gauge("loopd_descriptor_device_info", "The device computing descriptors (1 for the one in use).", 1, "device", s.device);
   return m.text();
 }

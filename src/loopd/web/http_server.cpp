@@ -9,27 +9,18 @@
 namespace loopd {
 
 std::optional<HttpListen> parse_http_listen(const std::string& text, std::string* error) {
-  static const std::regex kListen(R"(^(?:((?:[0-9]{1,3}\.){3}[0-9]{1,3}):)?([0-9]{1,5})$)");
+  static const std::regex kListen(R"(^(?:([0-9]{1,3})\.([0-9]{1,3})\.([0-9]{1,3})\.([0-9]{1,3}):)?([0-9]{1,5})$)");
   std::smatch m;
-  HttpListen listen;
-  if (std::regex_match(text, m, kListen)) {
-    bool ok = std::stoi(m[2].str()) <= 65535;
-    if (m[1].matched) {
-      listen.address = m[1].str();
-      std::size_t start = 0;
-      for (int k = 0; k < 4 && ok; ++k) {  // each part 0-255
-        const std::size_t dot = listen.address.find('.', start);
-        ok = std::stoi(listen.address.substr(start, dot - start)) <= 255;
-        start = dot + 1;
-      }
-    }
-    if (ok) {
-      listen.port = std::stoi(m[2].str());
-      return listen;
-    }
+  bool ok = std::regex_match(text, m, kListen) && std::stoi(m[5].str()) <= 65535;
+  for (int part = 1; ok && m[1].matched && part <= 4; ++part) ok = std::stoi(m[part].str()) <= 255;
+  if (!ok) {
+    if (error) *error = "'" + text + "' is not PORT or IPV4:PORT (e.g. 8080 or 0.0.0.0:8080)";
+    return std::nullopt;
   }
-  if (error) *error = "'" + text + "' is not PORT or IPV4:PORT (e.g. 8080 or 0.0.0.0:8080)";
-  return std::nullopt;
+  HttpListen listen;
+  if (m[1].matched) listen.address = text.substr(0, text.rfind(':'));
+  listen.port = std::stoi(m[5].str());
+  return listen;
 }
 
 struct HttpServer::Context {
@@ -41,8 +32,10 @@ namespace {
 
 std::once_flag library_once;
 
-int send(mg_connection* conn, const HttpResponse& r, bool head) {
+/// The response's headers and, unless `head`, its body; `allow`: an Allow header (a 405).
+int send(mg_connection* conn, const HttpResponse& r, bool head, const char* allow = nullptr) {
   mg_response_header_start(conn, r.status);
+  if (allow) mg_response_header_add(conn, "Allow", allow, -1);
   mg_response_header_add(conn, "Content-Type", r.content_type.c_str(), -1);
   mg_response_header_add(conn, "Content-Length", std::to_string(r.body.size()).c_str(), -1);
   mg_response_header_add(conn, "Cache-Control", "no-store", -1);
@@ -55,17 +48,9 @@ int send(mg_connection* conn, const HttpResponse& r, bool head) {
 int handle(mg_connection* conn, void* data) {
   const auto* routes = static_cast<const std::map<std::string, HttpHandler>*>(data);
   const mg_request_info* info = mg_get_request_info(conn);
-  const bool head = info->request_method && std::strcmp(info->request_method, "HEAD") == 0;
-  if (!head && !(info->request_method && std::strcmp(info->request_method, "GET") == 0)) {
-    HttpResponse r{405, "text/plain; charset=utf-8", "loopd serves GET and HEAD only\n"};
-    mg_response_header_start(conn, r.status);
-    mg_response_header_add(conn, "Allow", "GET, HEAD", -1);
-    mg_response_header_add(conn, "Content-Type", r.content_type.c_str(), -1);
-    mg_response_header_add(conn, "Content-Length", std::to_string(r.body.size()).c_str(), -1);
-    mg_response_header_send(conn);
-    mg_write(conn, r.body.data(), r.body.size());
-    return r.status;
-  }
+  const std::string method = info->request_method ? info->request_method : "";
+  const bool head = method == "HEAD";
+  if (!head && method != "GET") return send(conn, {405, "text/plain; charset=utf-8", "loopd serves GET and HEAD only\n"}, false, "GET, HEAD");
   const auto route = routes->find(info->local_uri ? info->local_uri : "");
   if (route == routes->end()) return send(conn, {404, "text/plain; charset=utf-8", "not found\n"}, head);
   try {
