@@ -1,6 +1,15 @@
 #include "loopd/web/http_server.hpp"
 
+#include <arpa/inet.h>
 #include <civetweb.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+#include <vector>
 
 #include <cstring>
 #include <mutex>
@@ -26,6 +35,45 @@ std::optional<HttpListen> parse_http_listen(const std::string& text, std::string
 struct HttpServer::Context {
   mg_context* ctx = nullptr;
   std::map<std::string, HttpHandler> routes;
+  std::string websocket_path;  ///< "" until add_websocket
+  int websocket_clients = 0;
+  WebSocketService websocket;
+  std::mutex mutex;                                                      ///< guards peers, websocket_path and websocket
+  std::map<const mg_connection*, std::shared_ptr<WebSocketPeer>> peers;  ///< connections from the handshake to their close
+};
+
+bool WebSocketPeer::send_text(const std::string& text) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!open_ || !conn_) return false;
+  if (mg_websocket_write(conn_, MG_WEBSOCKET_OPCODE_TEXT, text.data(), text.size()) <= 0) open_ = false;
+  return open_;
+}
+
+void WebSocketPeer::close(const std::string& reason) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!open_ || !conn_) return;
+  // Close frame: a 2-byte status (1008, policy violation) and the reason, within the 125 bytes a control frame holds.
+  std::string payload = "\x03\xf0" + reason.substr(0, 120);
+  mg_websocket_write(conn_, MG_WEBSOCKET_OPCODE_CONNECTION_CLOSE, payload.data(), payload.size());
+  open_ = false;
+}
+
+bool WebSocketPeer::is_open() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return open_;
+}
+
+struct WebSocketPeer::ServerSide {
+  static void attach(WebSocketPeer& peer, mg_connection* conn, std::string remote) {
+    peer.conn_ = conn;
+    peer.remote_ = std::move(remote);
+  }
+  /// The server closed the connection: no call may touch it after this returns.
+  static void gone(WebSocketPeer& peer) {
+    std::lock_guard<std::mutex> lock(peer.mutex_);  // waits for a send in progress
+    peer.open_ = false;
+    peer.conn_ = nullptr;
+  }
 };
 
 namespace {
@@ -62,6 +110,75 @@ int handle(mg_connection* conn, void* data) {
 
 int quiet_log(const mg_connection*, const char*) { return 1; }  // civetweb's own error lines stay off loopd's log
 
+/// Before civetweb handles a request: a request to upgrade the connection must be a complete WebSocket handshake to
+/// the WebSocket path (RFC 6455 4.2.1: a Sec-WebSocket-Key and Sec-WebSocket-Version 13), else it is answered 400 here.
+/// Debian's civetweb 1.15 crashes (SIGSEGV formatting its own error page) on an upgrade request to any other path, or
+/// without the key, or with another version: found by fuzz_http_request.
+int guard_upgrade(mg_connection* conn) {
+  const mg_request_info* info = mg_get_request_info(conn);
+  if (!mg_get_header(conn, "Upgrade")) return 0;
+  auto* c = static_cast<HttpServer::Context*>(info->user_data);
+  std::string websocket_path;
+  if (c) {
+    std::lock_guard<std::mutex> lock(c->mutex);
+    websocket_path = c->websocket_path;
+  }
+  const char* key = mg_get_header(conn, "Sec-WebSocket-Key");
+  const char* version = mg_get_header(conn, "Sec-WebSocket-Version");
+  const std::string path = info->local_uri ? info->local_uri : "";
+  const bool handshake =
+      !websocket_path.empty() && path == websocket_path && key && *key && std::strlen(key) <= 64 && version && std::strcmp(version, "13") == 0;
+  if (handshake) return 0;
+  // Written whole: civetweb's response-header calls are not ready this early in a request.
+  static const std::string kBody = "not a WebSocket handshake loopd accepts (RFC 6455: Sec-WebSocket-Key, Sec-WebSocket-Version 13)\n";
+  const std::string reply = "HTTP/1.1 400 Bad Request\r\nContent-Type: text/plain; charset=utf-8\r\nContent-Length: " + std::to_string(kBody.size()) +
+                            "\r\nConnection: close\r\n\r\n" + kBody;
+  mg_write(conn, reply.data(), reply.size());
+  return 400;
+}
+
+using Context = HttpServer::Context;
+
+int websocket_connect(const mg_connection*, void* data) {
+  auto* c = static_cast<Context*>(data);
+  std::lock_guard<std::mutex> lock(c->mutex);
+  return static_cast<int>(c->peers.size()) < c->websocket_clients ? 0 : 1;  // non-zero: refused before the handshake
+}
+
+void websocket_ready(mg_connection* conn, void* data) {
+  auto* c = static_cast<Context*>(data);
+  auto peer = std::make_shared<WebSocketPeer>();
+  const mg_request_info* info = mg_get_request_info(conn);
+  WebSocketPeer::ServerSide::attach(*peer, conn, std::string(info->remote_addr) + ":" + std::to_string(info->remote_port));
+  {
+    std::lock_guard<std::mutex> lock(c->mutex);
+    c->peers[conn] = peer;
+  }
+  if (!c->websocket.on_open || !c->websocket.on_open(peer)) peer->close("refused");
+}
+
+int websocket_data(mg_connection* conn, int bits, char*, size_t, void* data) {
+  auto* c = static_cast<Context*>(data);
+  if ((bits & 0x0f) == MG_WEBSOCKET_OPCODE_CONNECTION_CLOSE) return 0;
+  std::lock_guard<std::mutex> lock(c->mutex);
+  const auto peer = c->peers.find(conn);
+  return peer != c->peers.end() && peer->second->is_open() ? 1 : 0;  // what a client sends is read and ignored
+}
+
+void websocket_close(const mg_connection* conn, void* data) {
+  auto* c = static_cast<Context*>(data);
+  std::shared_ptr<WebSocketPeer> peer;
+  {
+    std::lock_guard<std::mutex> lock(c->mutex);
+    const auto found = c->peers.find(conn);
+    if (found == c->peers.end()) return;
+    peer = found->second;
+    c->peers.erase(found);
+  }
+  WebSocketPeer::ServerSide::gone(*peer);
+  if (c->websocket.on_close) c->websocket.on_close(peer);
+}
+
 }  // namespace
 
 std::unique_ptr<HttpServer> HttpServer::start(const HttpServerConfig& config, std::map<std::string, HttpHandler> routes, std::string* error) {
@@ -72,13 +189,29 @@ std::unique_ptr<HttpServer> HttpServer::start(const HttpServerConfig& config, st
   const std::string ports = config.listen.address + ":" + std::to_string(config.listen.port);
   const std::string threads = std::to_string(std::max(1, config.threads));
   const std::string timeout = std::to_string(std::max(100, config.request_timeout_ms));
-  // No document_root: civetweb serves no file. No keep-alive: each scrape is one short connection.
-  const char* options[] = {"listening_ports", ports.c_str(),       "num_threads", threads.c_str(), "request_timeout_ms",
-                           timeout.c_str(),   "enable_keep_alive", "no",          nullptr};
+  server->context_->websocket_clients = std::max(0, config.websocket_clients);
+  // No document_root: civetweb serves no file. No keep-alive: each scrape is one short connection. A WebSocket client
+  // that sends nothing for the timeout is pinged; one that does not read is dropped when a send times out.
+  const char* options[] = {"listening_ports",
+                           ports.c_str(),
+                           "num_threads",
+                           threads.c_str(),
+                           "request_timeout_ms",
+                           timeout.c_str(),
+                           "enable_keep_alive",
+                           "no",
+                           "websocket_timeout_ms",
+                           timeout.c_str(),
+                           "enable_websocket_ping_pong",
+                           "yes",
+                           "max_request_size",
+                           "16384",
+                           nullptr};
   mg_callbacks callbacks;
   std::memset(&callbacks, 0, sizeof callbacks);
   callbacks.log_message = quiet_log;
-  server->context_->ctx = mg_start(&callbacks, nullptr, options);
+  callbacks.begin_request = guard_upgrade;
+  server->context_->ctx = mg_start(&callbacks, server->context_.get(), options);
   if (!server->context_->ctx) {
     if (error) *error = "cannot listen on " + ports + " (address not on this machine, or the port is in use)";
     return nullptr;
@@ -95,8 +228,51 @@ std::unique_ptr<HttpServer> HttpServer::start(const HttpServerConfig& config, st
   return server;
 }
 
+void HttpServer::add_websocket(const std::string& path, WebSocketService service) {
+  {
+    std::lock_guard<std::mutex> lock(context_->mutex);
+    context_->websocket = std::move(service);
+    context_->websocket_path = path;
+  }
+  mg_set_websocket_handler(context_->ctx, path.c_str(), websocket_connect, websocket_ready, websocket_data, websocket_close, context_.get());
+}
+
+namespace {
+/// Opens and closes a connection to the server's own port (0.0.0.0: loopback), without waiting.
+void poke(const std::string& address, int port) {
+  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK, 0);
+  if (fd < 0) return;
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
+  addr.sin_addr.s_addr = address == "0.0.0.0" ? htonl(INADDR_LOOPBACK) : inet_addr(address.c_str());
+  connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
+  close(fd);
+}
+}  // namespace
+
 HttpServer::~HttpServer() {
-  if (context_ && context_->ctx) mg_stop(context_->ctx);
+  if (!context_ || !context_->ctx) return;
+  // WebSocket clients are told first (a close frame): a browser answers it and its connection ends now, where civetweb
+  // would otherwise wait for its read's poll period.
+  std::vector<std::shared_ptr<WebSocketPeer>> peers;
+  {
+    std::lock_guard<std::mutex> lock(context_->mutex);
+    for (const auto& [conn, peer] : context_->peers) peers.push_back(peer);
+  }
+  for (const auto& peer : peers) peer->close("loopd stops");
+  // civetweb's listening thread sees the stop only when its poll returns, after up to its poll period (measured: up to
+  // 1 s at the end of a replay); a connection to the server's own port ends that poll at once.
+  std::atomic<bool> stopped{false};
+  std::thread waker([&] {
+    for (int i = 0; i < 200 && !stopped.load(); ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      poke(address_, port_);
+    }
+  });
+  mg_stop(context_->ctx);
+  stopped = true;
+  waker.join();
 }
 
 std::string HttpServer::url() const { return "http://" + address_ + ":" + std::to_string(port_); }
