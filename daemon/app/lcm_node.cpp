@@ -23,6 +23,7 @@
 #include "lcm_log.hpp"
 #include "message_convert.hpp"
 #include "loopd/runtime/node_runtime.hpp"
+#include "loopd/runtime/view_sink.hpp"
 #include "output_messages.hpp"
 #include "status_endpoints.hpp"
 #include "scan_decode.hpp"
@@ -349,6 +350,15 @@ class ServiceLink {
   double next_status_s_ = 0.0;
 };
 
+/// --http: the page's title, and with a map its outline (stored keyframes, correction, decisions, newest clouds).
+void show_map(NodeRuntime& runtime, ViewFeed& feed, const std::string& source) {
+  feed.set_source(source);
+  MapStore* map = runtime.map_before_start();
+  if (!map) return;
+  const StoreStatus status = load_map_view(*map, feed, MapViewOptions{});
+  if (!status.ok() && log_enabled(LogLevel::kWarn)) std::fprintf(stderr, "loopd: http: the map's outline is not shown: %s\n", status.message.c_str());
+}
+
 /// Handles LCM until `stop`, polling the service link at least every 100 ms. False after an LCM error.
 bool handle_lcm_until_stopped(lcm::LCM& lcm, const std::atomic<bool>& stop, ServiceLink& service) {
   while (!stop.load()) {
@@ -399,15 +409,17 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
       sensor_model_from_choice(engine_config.detector.sensor, engine_config.detector.sensor_elevations_deg, engine_config.detector.sensor_columns);
   check_receive_buffer(node.lcm_url, model ? model->rays_per_scan() : 130000);
   const double start = wall_s();
-  StatusEndpoints endpoints;  // --http: served from before the map opens until after it closes
+  StatusEndpoints endpoints(node);  // --http: served from before the map opens until after it closes
   std::unique_ptr<HttpServer> http;
   if (!serve_status(node.http_listen, endpoints, &http)) return 2;
   OutputSink sink(node, &lcm, nullptr, false);  // before the runtime: its engine and writer deliver to it until they go
+  ViewSink view(sink, endpoints.feed());        // --http: the live page sees what is published
   NodeRuntime runtime(node);
   if (!runtime.open_map()) return 2;
+  if (http) show_map(runtime, endpoints.feed(), "live " + node.lcm_url);
   EngineConfig live_config = engine_config;
   live_config.detector.parallel_candidates = true;  // spare cores shorten the latency tail; same decisions
-  if (!runtime.start(live_config, sink, "live " + node.lcm_url, false)) return 2;
+  if (!runtime.start(live_config, http ? static_cast<EngineSink&>(view) : sink, "live " + node.lcm_url, false)) return 2;
   LoopdEngine& engine = runtime.engine();
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
@@ -480,6 +492,7 @@ int run_live(const NodeConfig& node, const EngineConfig& engine_config, const st
   runtime.finish();
   fill_summary(summary, engine, handler);
   if (summary) summary->seconds = wall_s() - start;
+  log_page_stats(endpoints, wall_s() - start);
   return lcm_ok ? 0 : 3;
 }
 
@@ -493,14 +506,16 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
     std::cerr << "loopd: " << error << std::endl;
     return 2;
   }
-  StatusEndpoints endpoints;  // --http on a replay: the figures of its newest status (data time)
+  StatusEndpoints endpoints(node);  // --http on a replay: the figures of its newest status (data time)
   std::unique_ptr<HttpServer> http;
   if (!serve_status(node.http_listen, endpoints, &http)) return 2;
   LogWriter writer;
   std::unique_ptr<lcm::LCM> publisher;
   std::optional<OutputSink> sink;  // before the runtime: its engine and writer deliver to it until they go
+  std::optional<ViewSink> view;
   NodeRuntime runtime(node);
   if (!runtime.open_map()) return 2;
+  if (http) show_map(runtime, endpoints.feed(), "replay " + input_log);
   // A replay resumed on its map adds the rest of the events to the output of the run that stopped.
   if (!output_log.empty() && !writer.open(output_log, &error, runtime.map_holds_keyframes())) {
     std::cerr << "loopd: " << error << std::endl;
@@ -517,7 +532,8 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
   EngineConfig config = engine_config;
   config.block_when_full = true;  // replay never sheds: it waits for the workers
   sink.emplace(node, publisher.get(), output_log.empty() ? nullptr : &writer, true);
-  if (!runtime.start(config, *sink, "replay " + input_log, true)) return 2;
+  if (http) view.emplace(*sink, endpoints.feed());
+  if (!runtime.start(config, view ? static_cast<EngineSink&>(*view) : *sink, "replay " + input_log, true)) return 2;
   LoopdEngine& engine = runtime.engine();
   InputHandler handler(node, decode_limits(engine_config));
   InputHealthLog health_log;
@@ -560,6 +576,7 @@ int run_replay(const NodeConfig& node, const EngineConfig& engine_config, const 
     summary->log_corrupt_headers = reader.stats().corrupt_headers;
   }
   writer.close();
+  log_page_stats(endpoints, wall_s() - start);
   return 0;
 }
 

@@ -4,6 +4,7 @@
 
 #include "loopd/runtime/log_level.hpp"
 #include "loopd/web/metrics_text.hpp"
+#include "loopd/web/page_files.hpp"
 
 namespace loopd {
 
@@ -64,26 +65,67 @@ std::string metrics_of(const status_t& s, bool alive) {
   return m.text();
 }
 
-void StatusEndpoints::update(const status_t& status) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  latest_ = status;
+StatusEndpoints::StatusEndpoints(const NodeConfig& node) : node_(node) {}
+
+void StatusEndpoints::update(const status_t& s) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    latest_ = s;
+  }
+  if (node_.http_listen.empty()) return;
+  const auto v = [](auto x) { return static_cast<double>(x); };
+  const double scans = s.channels.empty() ? 0.0 : v(s.channels[0].received);  // the scan channel comes first
+  const std::string role = node_.localize             ? "localizing in the map (read-only)"
+                           : node_.fleet.vehicle >= 0 ? "fleet vehicle " + std::to_string(node_.fleet.vehicle)
+                                                      : "single vehicle";
+  const ViewClients::Stats page = clients_.stats();
+  feed_.set_health({{"scans_received", scans},
+                    {"keyframes", v(s.keyframes)},
+                    {"loops_accepted", v(s.loops_accepted)},
+                    {"loops_rejected", v(s.loops_rejected)},
+                    {"queue_depth", v(s.queue_depth)},
+                    {"pending_scans", v(s.pending_scans)},
+                    {"shed", v(s.shed)},
+                    {"invalid_scans", v(s.invalid_scans)},
+                    {"scans_lost_estimate", v(s.scans_lost_estimate)},
+                    {"resident_memory_bytes", v(s.memory_bytes)},
+                    {"map_bytes", v(s.map_bytes)},
+                    {"map_writes_buffered", v(s.map_writes_buffered)},
+                    {"map_write_retries", v(s.map_write_retries)},
+                    {"map_write_failures", v(s.map_write_failures)},
+                    {"session", v(s.session)},
+                    {"uptime_s", s.uptime_s},
+                    {"pages_connected", v(page.connected)}},
+                   {{"watchdog", alive_.load() ? "ok" : "stalled"},
+                    {"role", role},
+                    {"map", s.map_path.empty() ? "in memory" : s.map_path},
+                    {"map_error", s.map_error},
+                    {"device", s.device}});
 }
 
 std::map<std::string, HttpHandler> StatusEndpoints::routes() {
-  return {{"/metrics",
-           [this] {
-             std::optional<status_t> s;
-             {
-               std::lock_guard<std::mutex> lock(mutex_);
-               s = latest_;
-             }
-             if (!s) return HttpResponse{503, "text/plain; charset=utf-8", "no status yet\n"};
-             return HttpResponse{200, MetricsText::content_type(), metrics_of(*s, alive_.load())};
-           }},
-          {"/healthz", [this] {
-             return alive_.load() ? HttpResponse{200, "text/plain; charset=utf-8", "ok\n"}
-                                  : HttpResponse{503, "text/plain; charset=utf-8", "stalled: a pipeline stage makes no progress\n"};
-           }}};
+  std::map<std::string, HttpHandler> routes = page_routes(find_page_dir());
+  routes.merge(std::map<std::string, HttpHandler>{
+      {"/metrics",
+       [this] {
+         std::optional<status_t> s;
+         {
+           std::lock_guard<std::mutex> lock(mutex_);
+           s = latest_;
+         }
+         if (!s) return HttpResponse{503, "text/plain; charset=utf-8", "no status yet\n"};
+         const ViewClients::Stats page = clients_.stats();
+         MetricsText web;
+         web.gauge("loopd_http_page_clients", "Live pages connected now (WebSocket).", static_cast<double>(page.connected));
+         web.counter("loopd_http_page_clients_dropped_total", "Live pages dropped because they did not read.", static_cast<double>(page.dropped));
+         web.counter("loopd_http_page_sent_bytes_total", "Bytes sent to live pages.", static_cast<double>(page.bytes_sent));
+         return HttpResponse{200, MetricsText::content_type(), metrics_of(*s, alive_.load()) + web.text()};
+       }},
+      {"/healthz", [this] {
+         return alive_.load() ? HttpResponse{200, "text/plain; charset=utf-8", "ok\n"}
+                              : HttpResponse{503, "text/plain; charset=utf-8", "stalled: a pipeline stage makes no progress\n"};
+       }}});
+  return routes;
 }
 
 bool serve_status(const std::string& listen, StatusEndpoints& endpoints, std::unique_ptr<HttpServer>* server) {
@@ -93,15 +135,27 @@ bool serve_status(const std::string& listen, StatusEndpoints& endpoints, std::un
   if (where) {
     HttpServerConfig config;
     config.listen = *where;
+    config.websocket_clients = endpoints.node().http_view.max_clients;
+    config.threads = 2 + config.websocket_clients;  // each page holds a thread; two more for scrapes and files
     *server = HttpServer::start(config, endpoints.routes(), &error);
+    if (*server) (*server)->add_websocket("/ws", endpoints.clients().service());
   }
   if (!*server) {
     std::fprintf(stderr, "loopd: --http %s: %s\n", listen.c_str(), error.c_str());
     return false;
   }
   if (log_enabled(LogLevel::kInfo))
-    std::fprintf(stderr, "loopd: http: %s/metrics and %s/healthz\n", (*server)->url().c_str(), (*server)->url().c_str());
+    std::fprintf(stderr, "loopd: http: live page %s/ (metrics %s/metrics, health %s/healthz)\n", (*server)->url().c_str(), (*server)->url().c_str(),
+                 (*server)->url().c_str());
   return true;
+}
+
+void log_page_stats(const StatusEndpoints& endpoints, double seconds) {
+  if (endpoints.node().http_listen.empty() || !log_enabled(LogLevel::kInfo)) return;
+  const ViewClients::Stats s = endpoints.clients().stats();
+  std::fprintf(stderr, "loopd: http: %lld live pages served, %lld dropped, %lld bytes sent to them (%.0f bytes/s over %.1f s)\n",
+               static_cast<long long>(s.served), static_cast<long long>(s.dropped), static_cast<long long>(s.bytes_sent),
+               seconds > 0.0 ? static_cast<double>(s.bytes_sent) / seconds : 0.0, seconds);
 }
 
 }  // namespace loopd

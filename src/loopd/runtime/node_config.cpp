@@ -34,6 +34,8 @@ std::optional<std::string> NodeConfig::validate() const {
   if (!(ledger_poll >= 0.1 && ledger_poll <= 600.0)) return "map.ledger_poll must be in [0.1, 600] s";
   if (localize && map.uri.empty()) return "map.localize (--localize) needs a map (map.path / --map)";
   if (std::string e; !http_listen.empty() && !parse_http_listen(http_listen, &e)) return "http.listen (--http): " + e;
+  if (http_view.max_clients < 0 || http_view.max_clients > 64) return "http.clients must be in [0, 64]";
+  if (http_view.bytes_per_s < 4096 || http_view.bytes_per_s > (std::int64_t{1} << 30)) return "http.client_bytes_per_s must be in [4096, 2^30]";
   return std::nullopt;
 }
 
@@ -59,6 +61,8 @@ void bind(Binder& b, NodeConfig& n) {
   b.field("map.ledger_poll", n.ledger_poll);
   b.field("map.localize", n.localize);
   b.field("http.listen", n.http_listen);
+  b.field("http.clients", n.http_view.max_clients);
+  b.field("http.client_bytes_per_s", n.http_view.bytes_per_s);
   b.field("fleet.vehicle", n.fleet.vehicle);
   b.field("fleet.poll_interval", n.fleet.poll_interval);
   b.field("fleet.solve_every_keyframes", n.fleet.solve_every_keyframes);

@@ -4,6 +4,8 @@
 #include <optional>
 #include <string>
 
+#include "loopd/web/view_clients.hpp"
+
 #include "loopd/runtime/fleet_sync.hpp"
 #include "loopd/runtime/log_level.hpp"
 #include "loopd/runtime/loopd_engine.hpp"
@@ -54,8 +56,10 @@ struct NodeConfig {
   /// On a shared postgresql:// map it reads one vehicle's sessions (fleet.vehicle, 0 by default) on a read-only
   /// connection (a role with SELECT rights only is enough) and does not join the fleet.
   bool localize = false;
-  /// http.listen (--http): serve /metrics and /healthz on "PORT" (loopback) or "IPV4:PORT"; "" = off (docs/metrics.md)
+  /// http.listen (--http): serve the live page, /metrics and /healthz on "PORT" (loopback) or "IPV4:PORT"; "" = off
+  /// (docs/web.md, docs/metrics.md)
   std::string http_listen;
+  ViewClientsConfig http_view;  ///< http.clients, http.client_bytes_per_s: the live page's clients and what each may take
   std::optional<std::string> validate() const;
 };
 

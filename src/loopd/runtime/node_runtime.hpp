@@ -37,6 +37,8 @@ class NodeRuntime {
 
   /// @brief Opens node.map (nothing when no map is configured).
   bool open_map();
+  /// @brief The opened map (null without one); read it only before start() (the writer owns it after).
+  MapStore* map_before_start() { return engine_ ? nullptr : store_.get(); }
   /// @brief The opened map held keyframes (a run resumed on it).
   bool map_holds_keyframes() const { return holds_keyframes_; }
 
