@@ -1,7 +1,7 @@
-// loopd-map: what a loopd map file holds (loopd --map FILE): info, trajectory, loops, check, and the 3D map built from
-// it (export-cloud, export-octomap, picture); and the loop ledger (loops --revoke / --restore, ledger, correct). Opens
-// the map read-only, so it can run while loopd writes to it, except for the ledger's writes and correct; never creates
-// a map.
+// loopd-map: what a loopd map file holds (loopd --map FILE): info, trajectory, loops, check, the live page of it
+// (serve), and the 3D map built from it (export-cloud, export-octomap, picture); and the loop ledger (loops --revoke /
+// --restore, ledger, correct). Opens the map read-only, so it can run while loopd writes to it, except for the ledger's writes and correct; never
+// creates a map.
 #include <CLI/CLI.hpp>
 #include <iostream>
 #include <unistd.h>
@@ -79,7 +79,12 @@ int main(int argc, char** argv) {
   LedgerCli ledger_cli;
   add_ledger_options(app, *loops, ledger_cli);
   CLI::App* check = app.add_subcommand("check", "SQLite integrity check and the map's invariants; exit 1 when either fails");
-  std::vector<CLI::App*> subs{info, trajectory, loops, check, ledger_cli.ledger, ledger_cli.correct};
+  CLI::App* serve = app.add_subcommand("serve", "the live page of this map (its sessions and every stored decision) until Ctrl-C");
+  ServeOptions serve_options;
+  serve->add_option("--http", serve_options.listen, "PORT (loopback) or IPV4:PORT")->required();
+  serve->add_option("--clients", serve_options.clients, "pages at once")->check(CLI::Range(1, 64))->capture_default_str();
+  serve->add_option("--clouds", serve_options.clouds, "map clouds of the newest keyframes shown")->check(CLI::Range(0, 1000))->capture_default_str();
+  std::vector<CLI::App*> subs{info, trajectory, loops, check, serve, ledger_cli.ledger, ledger_cli.correct};
 #ifdef LOOPD_WITH_OCTOMAP
   MapBuildOptions build;
   CLI::App* export_cloud = app.add_subcommand("export-cloud", "the 3D map (corrected poses, moving objects and noise removed) as .pcd or .ply");
@@ -127,6 +132,7 @@ int main(int argc, char** argv) {
     return run_ledger_cli(*map.store, ledger_cli, options);
   if (loops->parsed()) return run_loops(*map.store, loops_options, options);
   if (ledger_cli.ledger->parsed()) return run_ledger(*map.store, options);
+  if (serve->parsed()) return run_serve(*map.store, serve_options, options);
   if (ledger_cli.correct->parsed()) return run_correct(*map.store, ledger_cli.correct_options, options);
 #ifdef LOOPD_WITH_OCTOMAP
   if (export_cloud->parsed()) return run_export_cloud(*map.store, build, options);

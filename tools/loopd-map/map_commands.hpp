@@ -70,6 +70,14 @@ int run_export_octomap(MapStore& store, const MapBuildOptions& build, const Comm
 /// @brief `picture`: a top view of the map (height colours, trajectory, accepted loops) as PNG.
 int run_picture(MapStore& store, const MapBuildOptions& build, const CommandOptions& options);
 
+/// @brief `serve`: the live page of a stored map (map_serve.cpp).
+struct ServeOptions {
+  std::string listen;  ///< "PORT" (loopback) or "IPV4:PORT"
+  int clients = 4;     ///< pages at once
+  int clouds = 40;     ///< map clouds of the newest keyframes shown
+};
+int run_serve(MapStore& store, const ServeOptions& serve, const CommandOptions& options);
+
 /// @brief `check`: the store's integrity check and map invariants; kExitCheckFailed when it fails.
 int run_check(MapStore& store, const CommandOptions& options);
 
