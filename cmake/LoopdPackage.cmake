@@ -130,7 +130,8 @@ set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 
 set(CPACK_DEBIAN_LOOPD_PACKAGE_NAME loopd)
 set(CPACK_DEBIAN_LOOPD_PACKAGE_SECTION science)
-set(CPACK_DEBIAN_LOOPD_PACKAGE_DEPENDS "adduser")  # postinst; merged with the shlibdeps list
+# adduser: postinst. libjs-three, libjs-chart.js: the live page (--http) loads them from /usr/share/javascript.
+set(CPACK_DEBIAN_LOOPD_PACKAGE_DEPENDS "adduser, libjs-three, libjs-chart.js")  # merged with the shlibdeps list
 # loopd-spy is a shell script starting Java's lcm-spy with loopd_types.jar: not a dependency of the daemon.
 set(CPACK_DEBIAN_LOOPD_PACKAGE_RECOMMENDS "default-jre-headless | java-runtime-headless, liblcm-java, libjchart2d-java")
 set(CPACK_DEBIAN_LOOPD_PACKAGE_SUGGESTS "opencl-icd")  # descriptor.backend opencl; without one loopd uses the CPU

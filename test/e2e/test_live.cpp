@@ -18,6 +18,7 @@
 #include <loopd/status_t.hpp>
 
 #include "lcm_log.hpp"
+#include "support/headless_chromium.hpp"
 #include "support/http_client.hpp"
 #include "support/process.hpp"
 #include "support/hostile_log.hpp"
@@ -105,6 +106,12 @@ TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops n
   CHECK(metrics.status == 200);
   CHECK(loopd::test::http_request(http_port, "POST", "/metrics").status == 405);
   CHECK(loopd::test::http_request(http_port, "GET", "/../etc/passwd").status == 404);
+  // The live page in a real browser (headless Chromium): the DOM once the WebSocket data came, and a screenshot.
+  const std::string page_url = "http://127.0.0.1:" + std::to_string(http_port) + "/";
+  const bool browser = loopd::test::chromium_available();
+  const std::string dom = browser ? loopd::test::chromium_dom(page_url) : "";
+  const std::string png = (dir / "page.png").string();
+  const bool screenshot = browser && loopd::test::chromium_screenshot(page_url, png);
   CHECK(loopd::test::stop_process(loopd) == 0);
   loopd::test::stop_process(logger);
 
@@ -133,5 +140,23 @@ TEST_CASE("live at 1x beside lcm-logplayer makes the replay's decisions, drops n
   CHECK(m["loopd_shed_total"] == 0);
   CHECK(m["loopd_resident_memory_bytes"] > 1e7);
   CHECK(m.count("loopd_descriptor_device_info{device=\"" + std::string(live.status.device) + "\"}") == 1);
+  if (!browser) {
+    WARN("skipped the browser checks: chromium is not installed (apt install chromium)");
+  } else {
+    // Every published loop is on the page, and its funnel is status_t's.
+    INFO(dom.substr(0, 3000));
+    CHECK(loopd::test::body_attribute(dom, "data-state") == "synced");
+    CHECK(loopd::test::element_text(dom, "loops-shown") == std::to_string(live.accepted.size()));
+    CHECK(loopd::test::element_text(dom, "funnel-accepted") == std::to_string(live.status.loops_accepted));
+    CHECK(loopd::test::element_text(dom, "funnel-rejected") == std::to_string(live.status.loops_rejected));
+    CHECK(loopd::test::element_text(dom, "funnel-keyframes") == std::to_string(live.status.keyframes));
+    CHECK(loopd::test::element_text(dom, "funnel-scans") == std::to_string(live.status.channels[0].received));
+    CHECK(loopd::test::element_text(dom, "health-shed") == "0");
+    CHECK(loopd::test::element_text(dom, "health-watchdog") == "ok");
+    REQUIRE(screenshot);
+    CHECK(fs::file_size(png) > 50000);  // a drawn page, not a blank one
+    fs::create_directories(kBin + "/test-artifacts");
+    fs::copy_file(png, kBin + "/test-artifacts/live_page.png", fs::copy_options::overwrite_existing);
+  }
   fs::remove_all(dir);
 }

@@ -13,7 +13,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 cmake --install "$build" --prefix "$tmp/prefix" >/dev/null
 for f in bin/loopd bin/loopd-sim bin/loopd-eval bin/loopd-spy share/java/loopd_types.jar include/loopd/loop_event_t.hpp \
-         include/loopd/base/point_cloud.hpp lib/cmake/loopd/loopdConfig.cmake; do
+         include/loopd/base/point_cloud.hpp lib/cmake/loopd/loopdConfig.cmake share/loopd/page/index.html share/loopd/page/view.js; do
   [ -e "$tmp/prefix/$f" ] || { echo "missing after install: $f"; exit 1; }
 done
 cmake -S "$src/test/install/consumer" -B "$tmp/consumer" -DCMAKE_PREFIX_PATH="$tmp/prefix" -DCMAKE_BUILD_TYPE=Release "${consumer_flags[@]}" >/dev/null
