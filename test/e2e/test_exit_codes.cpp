@@ -69,7 +69,7 @@ TEST_CASE("every program exits 0 after --help, 2 on an unknown option, 2 on an i
 }
 
 TEST_CASE("a program given no arguments at all where it needs some exits 2, never CLI11's own codes") {
-  for (const std::string& p :
+  for (const char* p :
        {"tools/loopd-eval/loopd-eval", "tools/loopd-correct/loopd-correct", "tools/kitti2lcm/kitti2lcm", "tools/loopd-register/loopd-register",
         "tools/loopd-bench/loopd-bench", "tools/loopd-compare/loopd-compare", "tools/loopd-map/loopd-map"}) {
     INFO(p);
