@@ -19,13 +19,7 @@ namespace fs = std::filesystem;
 namespace {
 const std::string kBin = LOOPD_BINARY_DIR;
 
-std::string run(const std::string& command) {
-  int rc = 0;
-  const std::string out = loopd::test::run_command(command, &rc);
-  INFO(command << "\n" << out);
-  REQUIRE(rc == 0);
-  return out;
-}
+using loopd::test::run_ok;
 }  // namespace
 
 TEST_CASE("loopd-map serve: a stored two-session map in headless Chromium shows every keyframe, decision and loop of the map") {
@@ -35,11 +29,11 @@ TEST_CASE("loopd-map serve: a stored two-session map in headless Chromium shows 
   const std::string map = (dir / "map.db").string();
   for (int session = 0; session < 2; ++session) {
     const std::string drive = (dir / ("drive" + std::to_string(session) + ".lcmlog")).string();
-    run(kBin + "/tools/loopd-sim/loopd-sim --route block --sensor vlp16 --quiet --seed 21 --session " + std::to_string(session + 1) +
-        " --scans 220 --out " + drive);
-    run(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + drive + " --map " + map);
+    run_ok(kBin + "/tools/loopd-sim/loopd-sim --route block --sensor vlp16 --quiet --seed 21 --session " + std::to_string(session + 1) +
+           " --scans 220 --out " + drive);
+    run_ok(kBin + "/daemon/loopd --sensor vlp16 --quiet --replay " + drive + " --map " + map);
   }
-  const nlohmann::json info = nlohmann::json::parse(loopd::test::last_line(run(kBin + "/tools/loopd-map/loopd-map " + map + " info --json")));
+  const nlohmann::json info = nlohmann::json::parse(loopd::test::last_line(run_ok(kBin + "/tools/loopd-map/loopd-map " + map + " info --json")));
   REQUIRE(info["sessions"] == 2);
   REQUIRE(info["loops_accepted"].get<int>() >= 10);
 

@@ -1,5 +1,6 @@
 #include "support/run_command.hpp"
 
+#include <catch2/catch.hpp>
 #include <cstdio>
 #include <sys/wait.h>
 
@@ -12,6 +13,14 @@ std::string run_command(const std::string& command, int* exit_code) {
   while (p && fgets(buf, sizeof(buf), p)) out += buf;
   const int status = p ? pclose(p) : -1;
   *exit_code = (status != -1 && WIFEXITED(status)) ? WEXITSTATUS(status) : -1;
+  return out;
+}
+
+std::string run_ok(const std::string& command) {
+  int rc = 0;
+  const std::string out = run_command(command, &rc);
+  INFO(command << "\n" << out);
+  REQUIRE(rc == 0);
   return out;
 }
 
