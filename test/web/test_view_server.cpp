@@ -174,17 +174,33 @@ TEST_CASE("view server: a page gets the feed over the WebSocket as it grows - pa
 
   // Upgrade requests that are not a complete handshake to /ws are answered 400 by loopd (Debian's civetweb 1.15 crashes
   // on each of them: found by fuzz_http_request), and the server answers on.
-  const std::string upgrade = "Host: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n";
+  const std::string upgrade = "Host: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n";
   const std::string key = "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n";
   for (const std::string& request : {"GET /ws HTTP/1.1\r\n" + upgrade + "Sec-WebSocket-Version: 13\r\n\r\n",             // no key
                                      "GET /ws HTTP/1.1\r\n" + upgrade + key + "\r\n",                                    // no version
                                      "GET /ws HTTP/1.1\r\n" + upgrade + key + "Sec-WebSocket-Version: 8\r\n\r\n",        // another version
                                      "GET /metrics HTTP/1.1\r\n" + upgrade + key + "Sec-WebSocket-Version: 13\r\n\r\n",  // not /ws
-                                     std::string("GET / HTTP/1.1\r\nHost: x\r\nUpgrade: h2c\r\nConnection: Upgrade\r\n\r\n")}) {
+                                     std::string("GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: h2c\r\nConnection: Upgrade\r\n\r\n")}) {
     INFO(request);
     CHECK(loopd::test::http_exchange(server->port(), request).status == 400);
   }
   CHECK(http_request(server->port(), "GET", "/view.css").status == (find_page_dir().empty() ? 404 : 200));
+
+  // Served on loopback, loopd answers loopback Host names only (a DNS name rebound to 127.0.0.1 by a web page gets 403),
+  // and a WebSocket only to a page of its own origin (any site could otherwise open ws://127.0.0.1:PORT/ws).
+  const auto get_with = [&](const std::string& headers) {
+    return loopd::test::http_exchange(server->port(), "GET /healthz-or-404 HTTP/1.1\r\n" + headers + "Connection: close\r\n\r\n").status;
+  };
+  CHECK(get_with("Host: evil.example\r\n") == 403);
+  CHECK(get_with("Host: 127.evil.example:80\r\n") == 403);
+  CHECK(get_with("Host: localhost:1234\r\n") == 404);  // served: no such path
+  CHECK(get_with("Host: 127.0.0.2\r\n") == 404);
+  CHECK(get_with("") == 404);  // HTTP/1.0-style, no Host
+  const std::string host = "127.0.0.1:" + std::to_string(server->port());
+  const std::string handshake =
+      "GET /ws HTTP/1.1\r\nHost: " + host + "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n" + key + "Sec-WebSocket-Version: 13\r\n";
+  CHECK(loopd::test::http_exchange(server->port(), handshake + "Origin: http://evil.example\r\n\r\n").status == 403);
+  CHECK(clients.stats().served == 1);
 }
 
 TEST_CASE("view server: a page that stops reading is dropped - the other page and the feed's writer go on") {

@@ -36,6 +36,7 @@ struct HttpServer::Context {
   mg_context* ctx = nullptr;
   std::map<std::string, HttpHandler> routes;
   std::string websocket_path;  ///< "" until add_websocket
+  bool loopback = true;        ///< listening on a loopback address: only loopback Host names are served
   int websocket_clients = 0;
   WebSocketService websocket;
   std::mutex mutex;                                                      ///< guards peers, websocket_path and websocket
@@ -110,31 +111,61 @@ int handle(mg_connection* conn, void* data) {
 
 int quiet_log(const mg_connection*, const char*) { return 1; }  // civetweb's own error lines stay off loopd's log
 
-/// Before civetweb handles a request: a request to upgrade the connection must be a complete WebSocket handshake to
-/// the WebSocket path (RFC 6455 4.2.1: a Sec-WebSocket-Key and Sec-WebSocket-Version 13), else it is answered 400 here.
-/// Debian's civetweb 1.15 crashes (SIGSEGV formatting its own error page) on an upgrade request to any other path, or
-/// without the key, or with another version: found by fuzz_http_request.
-int guard_upgrade(mg_connection* conn) {
+/// An answer written whole: civetweb's response-header calls are not ready this early in a request.
+int refuse(mg_connection* conn, int status, const char* reason, const std::string& body) {
+  const std::string reply = "HTTP/1.1 " + std::to_string(status) + " " + reason +
+                            "\r\nContent-Type: text/plain; charset=utf-8\r\nContent-Length: " + std::to_string(body.size()) +
+                            "\r\nConnection: close\r\n\r\n" + body;
+  mg_write(conn, reply.data(), reply.size());
+  return status;
+}
+
+/// The host of a Host header ("127.0.0.1:8090" -> "127.0.0.1", "[::1]:80" -> "[::1]").
+std::string host_name(const std::string& host) {
+  const std::size_t colon = host.rfind(':');
+  return colon != std::string::npos && host.find(']', colon) == std::string::npos ? host.substr(0, colon) : host;
+}
+
+/// "localhost", "[::1]" or an IPv4 literal in 127.0.0.0/8.
+bool is_loopback_name(const std::string& name) {
+  if (name == "localhost" || name == "[::1]") return true;
+  in_addr a{};
+  return inet_pton(AF_INET, name.c_str(), &a) == 1 && (ntohl(a.s_addr) >> 24) == 127;
+}
+
+/// Before civetweb handles a request:
+/// - on a loopback server, a Host that is not a loopback name is refused (403): a web page the operator visits cannot
+///   reach loopd through a DNS name rebound to 127.0.0.1;
+/// - a WebSocket handshake from a browser page of another origin (its Origin header is not http://HOST) is refused
+///   (403): WebSockets are not bound by the same-origin policy, so any site could otherwise read the feed;
+/// - a request to upgrade the connection must be a complete WebSocket handshake to the WebSocket path (RFC 6455 4.2.1:
+///   a Sec-WebSocket-Key and Sec-WebSocket-Version 13), else it is answered 400 here: Debian's civetweb 1.15 crashes
+///   (SIGSEGV formatting its own error page) on an upgrade request to any other path, without the key, or with another
+///   version (found by fuzz_http_request).
+int guard_request(mg_connection* conn) {
   const mg_request_info* info = mg_get_request_info(conn);
-  if (!mg_get_header(conn, "Upgrade")) return 0;
   auto* c = static_cast<HttpServer::Context*>(info->user_data);
   std::string websocket_path;
+  bool loopback = true;
   if (c) {
     std::lock_guard<std::mutex> lock(c->mutex);
     websocket_path = c->websocket_path;
+    loopback = c->loopback;
   }
+  const char* host = mg_get_header(conn, "Host");
+  if (loopback && host && !is_loopback_name(host_name(host)))
+    return refuse(conn, 403, "Forbidden", "loopd listens on loopback: the Host must be 127.0.0.1 or localhost\n");
+  if (!mg_get_header(conn, "Upgrade")) return 0;
+  const char* origin = mg_get_header(conn, "Origin");
+  if (origin && (!host || std::string(origin) != std::string("http://") + host))
+    return refuse(conn, 403, "Forbidden", "a WebSocket from a page of another origin\n");
   const char* key = mg_get_header(conn, "Sec-WebSocket-Key");
   const char* version = mg_get_header(conn, "Sec-WebSocket-Version");
   const std::string path = info->local_uri ? info->local_uri : "";
   const bool handshake =
       !websocket_path.empty() && path == websocket_path && key && *key && std::strlen(key) <= 64 && version && std::strcmp(version, "13") == 0;
   if (handshake) return 0;
-  // Written whole: civetweb's response-header calls are not ready this early in a request.
-  static const std::string kBody = "not a WebSocket handshake loopd accepts (RFC 6455: Sec-WebSocket-Key, Sec-WebSocket-Version 13)\n";
-  const std::string reply = "HTTP/1.1 400 Bad Request\r\nContent-Type: text/plain; charset=utf-8\r\nContent-Length: " + std::to_string(kBody.size()) +
-                            "\r\nConnection: close\r\n\r\n" + kBody;
-  mg_write(conn, reply.data(), reply.size());
-  return 400;
+  return refuse(conn, 400, "Bad Request", "not a WebSocket handshake loopd accepts (RFC 6455: Sec-WebSocket-Key, Sec-WebSocket-Version 13)\n");
 }
 
 using Context = HttpServer::Context;
@@ -190,6 +221,7 @@ std::unique_ptr<HttpServer> HttpServer::start(const HttpServerConfig& config, st
   const std::string threads = std::to_string(std::max(1, config.threads));
   const std::string timeout = std::to_string(std::max(100, config.request_timeout_ms));
   server->context_->websocket_clients = std::max(0, config.websocket_clients);
+  server->context_->loopback = config.listen.address.rfind("127.", 0) == 0;
   // No document_root: civetweb serves no file. No keep-alive: each scrape is one short connection. A WebSocket client
   // that sends nothing for the timeout is pinged; one that does not read is dropped when a send times out.
   const char* options[] = {"listening_ports",
@@ -210,7 +242,7 @@ std::unique_ptr<HttpServer> HttpServer::start(const HttpServerConfig& config, st
   mg_callbacks callbacks;
   std::memset(&callbacks, 0, sizeof callbacks);
   callbacks.log_message = quiet_log;
-  callbacks.begin_request = guard_upgrade;
+  callbacks.begin_request = guard_request;
   server->context_->ctx = mg_start(&callbacks, server->context_.get(), options);
   if (!server->context_->ctx) {
     if (error) *error = "cannot listen on " + ports + " (address not on this machine, or the port is in use)";
