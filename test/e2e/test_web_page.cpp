@@ -37,6 +37,10 @@ TEST_CASE("loopd-map serve: a stored two-session map in headless Chromium shows 
   REQUIRE(info["sessions"] == 2);
   REQUIRE(info["loops_accepted"].get<int>() >= 10);
 
+  // One rejected decision's stage as a map made by someone else might hold it: markup, which the page must show as text.
+  run_ok("sqlite3 " + map +
+         " \"UPDATE loops SET stage = '<b id=injected>x</b>' WHERE event_id = (SELECT MIN(event_id) FROM loops WHERE stage != 'accepted')\"");
+
   const int port = 7900 + static_cast<int>(getpid() % 100);
   const pid_t serve = loopd::test::spawn({kBin + "/tools/loopd-map/loopd-map", map, "serve", "--http", std::to_string(port)});
   int status = 0;
@@ -62,6 +66,8 @@ TEST_CASE("loopd-map serve: a stored two-session map in headless Chromium shows 
     CHECK(loopd::test::element_text(dom, "health-sessions") == "2");
     CHECK(dom.find("session 0") != std::string::npos);  // the legend: each session in its own colour
     CHECK(dom.find("session 1") != std::string::npos);
+    CHECK(dom.find("id=\"injected\"") == std::string::npos);                   // no element made from the map's text
+    CHECK(dom.find("&lt;b id=injected&gt;x&lt;/b&gt;") != std::string::npos);  // shown as text
     const std::string png = (dir / "page.png").string();
     REQUIRE(loopd::test::chromium_screenshot(url, png));
     CHECK(fs::file_size(png) > 50000);  // a drawn page, not a blank one (a blank 1500 x 1100 PNG is ~10 KB)

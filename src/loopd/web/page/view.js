@@ -276,7 +276,15 @@ function drawLegend() {
   const items = [...state.sessions.keys()].map((s) => ['session ' + s, sessionColour(s)]);
   items.push(['accepted loop', STAGE_COLOURS.accepted]);
   for (const s of Object.keys(state.funnel)) if (s !== 'accepted') items.push(['rejected: ' + s, stageColour(s)]);
-  $('legend').innerHTML = items.map(([n, c]) => '<span><i style="background:' + c + '"></i>' + n + '</span>').join('');
+  // Built as nodes, never as HTML: stage names come from the map, which may be someone else's file.
+  const legend = $('legend');
+  legend.replaceChildren(...items.map(([n, c]) => {
+    const span = document.createElement('span');
+    const swatch = document.createElement('i');
+    swatch.style.background = c;
+    span.append(swatch, n);
+    return span;
+  }));
 }
 
 function nearestDecision(x, y) {
