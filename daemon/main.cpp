@@ -104,7 +104,8 @@ int main(int argc, char** argv) {
                  "fleet vehicle number (0-2146) on a shared postgresql:// map: its sessions, the others' keyframes as loop "
                  "candidates, one joint correction (overrides fleet.vehicle)");
   app.add_option("--http", http_listen,
-                 "serve /metrics (Prometheus) and /healthz on PORT (loopback) or IPV4:PORT (overrides http.listen; docs/metrics.md)");
+                 "serve the live page (map, trajectory, loops, health), /metrics (Prometheus) and /healthz on PORT (loopback) or "
+                 "IPV4:PORT (overrides http.listen; docs/web.md)");
   app.add_flag("--localize", localize,
                "with --map: localize in the map without changing it (opened read-only; this run's keyframes stay in memory; "
                "overrides map.localize)");
