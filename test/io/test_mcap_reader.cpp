@@ -11,7 +11,7 @@
 #include <unistd.h>
 
 #include "loopd/io/mcap_reader.hpp"
-#include "support/process.hpp"
+#include "support/npm_tools.hpp"
 
 using namespace loopd;
 
@@ -203,19 +203,15 @@ TEST_CASE("MCAP: a file that is no MCAP, one cut inside a record and one whose r
 
 TEST_CASE("MCAP: files written by @mcap/core (npm), uncompressed, lz4 and zstd, read whole and in order") {
   // @mcap/core and lz4js from the npm registry into the build tree, once; skipped without node, npm or the registry.
-  const std::string npm = std::string(LOOPD_BINARY_DIR) + "/npm-test-tools";
-  const std::string script = std::string(LOOPD_SOURCE_DIR) + "/test/io/npm/write_mcap.mjs";
-  if (loopd::test::run_quiet("command -v node && command -v npm && command -v zstd") != 0 ||
-      (loopd::test::run_quiet("test -d " + npm + "/node_modules/@mcap/core") != 0 &&
-       loopd::test::run_quiet("timeout 120 npm install --no-audit --no-fund --prefix " + npm + " @mcap/core@2.2.2 lz4js@0.2.0") != 0)) {
+  if (!loopd::test::npm_tools({"@mcap/core@2.2.2", "lz4js@0.2.0"}, {"zstd"})) {
     WARN("skipped: node, npm, zstd or the npm registry (@mcap/core, lz4js) is not available");
     return;
   }
+  const std::string npm = loopd::test::npm_tools_folder();
   for (const std::string compression : {"", "lz4", "zstd"}) {
     INFO("compression '" << compression << "'");
     const std::string out = npm + "/written_" + (compression.empty() ? "none" : compression) + ".mcap";
-    // The script runs from the folder npm installed into, where Node finds the modules.
-    REQUIRE(loopd::test::run_quiet("cp " + script + " " + npm + "/ && node " + npm + "/write_mcap.mjs " + out + " '" + compression + "'") == 0);
+    REQUIRE(loopd::test::run_node("io/npm/write_mcap.mjs", out + " '" + compression + "'") == 0);
     McapReader reader;
     std::string error;
     REQUIRE(reader.open(out, &error));

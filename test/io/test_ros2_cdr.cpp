@@ -8,7 +8,7 @@
 #include <iterator>
 
 #include "loopd/io/ros2_cdr.hpp"
-#include "support/process.hpp"
+#include "support/npm_tools.hpp"
 
 using namespace loopd;
 
@@ -35,18 +35,13 @@ void every_truncation_refused(const std::vector<std::uint8_t>& bytes, std::size_
 }  // namespace
 
 TEST_CASE("ROS 2 CDR: PointCloud2, Odometry, PoseStamped and TFMessage written by @foxglove/rosmsg2-serialization (npm)") {
-  const std::string npm = std::string(LOOPD_BINARY_DIR) + "/npm-test-tools";
-  if (loopd::test::run_quiet("command -v node && command -v npm") != 0 ||
-      (loopd::test::run_quiet("test -d " + npm + "/node_modules/@foxglove/rosmsg2-serialization") != 0 &&
-       loopd::test::run_quiet("timeout 120 npm install --no-audit --no-fund --prefix " + npm +
-                              " @foxglove/rosmsg2-serialization@3.1.0 @foxglove/rosmsg-msgs-common@3.2.3") != 0)) {
+  if (!loopd::test::npm_tools({"@foxglove/rosmsg2-serialization@3.1.0", "@foxglove/rosmsg-msgs-common@3.2.3"})) {
     WARN("skipped: node, npm or the npm registry (@foxglove/rosmsg2-serialization) is not available");
     return;
   }
-  const std::string out = npm + "/cdr";
+  const std::string out = loopd::test::npm_tools_folder() + "/cdr";
   std::filesystem::create_directories(out);
-  REQUIRE(loopd::test::run_quiet("cp " + std::string(LOOPD_SOURCE_DIR) + "/test/io/npm/write_cdr.mjs " + npm + "/ && node " + npm +
-                                 "/write_cdr.mjs " + out) == 0);
+  REQUIRE(loopd::test::run_node("io/npm/write_cdr.mjs", out) == 0);
   std::string error;
 
   const std::vector<std::uint8_t> cloud_bytes = read_bytes(out + "/pointcloud2.cdr");
