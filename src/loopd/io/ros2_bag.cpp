@@ -12,7 +12,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool ends_with(const std::string& s, const std::string& tail) { return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0; }
+bool ends_with(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
 
 /// The storage a file's name says ("" when neither).
 std::string storage_of(const std::string& file) { return ends_with(file, ".mcap") ? "mcap" : ends_with(file, ".db3") ? "sqlite3" : ""; }

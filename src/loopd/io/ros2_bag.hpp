@@ -41,7 +41,7 @@ class Ros2Bag {
   bool read(const MessageVisitor& visit, std::string* error);
   /// @brief Topics seen so far (after read: every topic with its message count).
   const std::map<std::string, Ros2BagTopic>& topics() const { return topics_; }
-  std::int64_t skipped() const { return skipped_; }             ///< messages or chunks left out as damaged or orphaned
+  std::int64_t skipped() const { return skipped_; }              ///< messages or chunks left out as damaged or orphaned
   const std::string& first_problem() const { return problem_; }  ///< the first of them ("" when none)
 
  private:
