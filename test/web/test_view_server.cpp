@@ -176,11 +176,13 @@ TEST_CASE("view server: a page gets the feed over the WebSocket as it grows - pa
   // on each of them: found by fuzz_http_request), and the server answers on.
   const std::string upgrade = "Host: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n";
   const std::string key = "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n";
-  for (const std::string& request : {"GET /ws HTTP/1.1\r\n" + upgrade + "Sec-WebSocket-Version: 13\r\n\r\n",             // no key
-                                     "GET /ws HTTP/1.1\r\n" + upgrade + key + "\r\n",                                    // no version
-                                     "GET /ws HTTP/1.1\r\n" + upgrade + key + "Sec-WebSocket-Version: 8\r\n\r\n",        // another version
-                                     "GET /metrics HTTP/1.1\r\n" + upgrade + key + "Sec-WebSocket-Version: 13\r\n\r\n",  // not /ws
-                                     std::string("GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: h2c\r\nConnection: Upgrade\r\n\r\n")}) {
+  for (const std::string& request :
+       {"GET /ws HTTP/1.1\r\n" + upgrade + "Sec-WebSocket-Version: 13\r\n\r\n",                                                  // no key
+        "GET /ws HTTP/1.1\r\n" + upgrade + key + "\r\n",                                                                         // no version
+        "GET /ws HTTP/1.1\r\n" + upgrade + key + "Sec-WebSocket-Version: 8\r\n\r\n",                                             // another version
+        "GET /ws HTTP/1.1\r\n" + upgrade + "Sec-WebSocket-Key: fgolIHNX\x89\x89ub52jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n",  // key not base64
+        "GET /metrics HTTP/1.1\r\n" + upgrade + key + "Sec-WebSocket-Version: 13\r\n\r\n",                                       // not /ws
+        std::string("GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: h2c\r\nConnection: Upgrade\r\n\r\n")}) {
     INFO(request);
     CHECK(loopd::test::http_exchange(server->port(), request).status == 400);
   }

@@ -139,9 +139,10 @@ bool is_loopback_name(const std::string& name) {
 /// - a WebSocket handshake from a browser page of another origin (its Origin header is not http://HOST) is refused
 ///   (403): WebSockets are not bound by the same-origin policy, so any site could otherwise read the feed;
 /// - a request to upgrade the connection must be a complete WebSocket handshake to the WebSocket path (RFC 6455 4.2.1:
-///   a Sec-WebSocket-Key and Sec-WebSocket-Version 13), else it is answered 400 here: Debian's civetweb 1.15 crashes
-///   (SIGSEGV formatting its own error page) on an upgrade request to any other path, without the key, or with another
-///   version (found by fuzz_http_request).
+///   a 24-character base64 Sec-WebSocket-Key and Sec-WebSocket-Version 13), else it is answered 400 here: Debian's
+///   civetweb 1.15 crashes (SIGSEGV formatting its own error page) on an upgrade request to any other path, without the
+///   key, or with another version, and answers a key that is not base64 with an error body and no status line (both
+///   found by fuzz_http_request).
 int guard_request(mg_connection* conn) {
   const mg_request_info* info = mg_get_request_info(conn);
   auto* c = static_cast<HttpServer::Context*>(info->user_data);
@@ -162,8 +163,9 @@ int guard_request(mg_connection* conn) {
   const char* key = mg_get_header(conn, "Sec-WebSocket-Key");
   const char* version = mg_get_header(conn, "Sec-WebSocket-Version");
   const std::string path = info->local_uri ? info->local_uri : "";
-  const bool handshake =
-      !websocket_path.empty() && path == websocket_path && key && *key && std::strlen(key) <= 64 && version && std::strcmp(version, "13") == 0;
+  // RFC 6455 4.1: the key is 16 bytes in base64, 24 characters (civetweb answers another with a bare error body).
+  const bool key_ok = key && std::strlen(key) == 24 && std::strspn(key, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/=") == 24;
+  const bool handshake = !websocket_path.empty() && path == websocket_path && key_ok && version && std::strcmp(version, "13") == 0;
   if (handshake) return 0;
   return refuse(conn, 400, "Bad Request", "not a WebSocket handshake loopd accepts (RFC 6455: Sec-WebSocket-Key, Sec-WebSocket-Version 13)\n");
 }
